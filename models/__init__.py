@@ -1,0 +1,1 @@
+"""MJCF models of the robot, the obstacles and the arenas (package data)."""

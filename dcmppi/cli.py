@@ -1,0 +1,190 @@
+"""The `dcmppi` command line: tasks, run, bench, report, timing."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+
+def _key_values(pairs: list[str], flag: str) -> dict:
+    """Parse NAME=VALUE pairs; VALUE is read as JSON when it parses, else as a string."""
+    out = {}
+    for pair in pairs or []:
+        name, sep, value = pair.partition("=")
+        if not sep or not name:
+            raise ValueError(f"{flag} expects NAME=VALUE, got {pair!r}")
+        try:
+            out[name] = json.loads(value)
+        except json.JSONDecodeError:
+            out[name] = value
+    return out
+
+
+def _csv(text: str | None) -> tuple[str, ...] | None:
+    return None if text is None else tuple(s.strip() for s in text.split(",") if s.strip())
+
+
+def cmd_tasks(args) -> int:
+    from dcmppi import tasks
+
+    for name, description in tasks.describe().items():
+        print(f"{name:10s} {description}")
+    return 0
+
+
+def cmd_run(args) -> int:
+    from dcmppi.runner import EpisodeSpec, run_episode
+
+    spec = EpisodeSpec(
+        task=args.task,
+        controller=args.controller,
+        noise=args.noise,
+        seed=args.seed,
+        task_params=_key_values(args.task_param, "--task-param"),
+        controller_params=_key_values(args.param, "--param"),
+    )
+    _check_names(spec.task, spec.controller)
+    if args.video:
+        from dcmppi.video import record_episode
+
+        result = record_episode(spec, args.video, camera=args.camera)
+    else:
+        result = run_episode(spec)
+    if args.json:
+        print(json.dumps({"task": spec.task, "controller": spec.controller, "noise": spec.noise,
+                          "seed": spec.seed, **result}))  # fmt: skip
+    else:
+        ttg = "-" if result["time_to_goal"] is None else f"{result['time_to_goal']:.1f} s"
+        print(
+            f"{spec.task} / {spec.controller} / noise {spec.noise} / seed {spec.seed}: "
+            f"{result['outcome']}\n"
+            f"  time to goal {ttg}, path {result['path_length']:.1f} m, "
+            f"min clearance {result['min_clearance']:.2f} m, {result['steps']} steps\n"
+            f"  controller {result['ctrl_ms_mean']:.2f} ms/step (p95 {result['ctrl_ms_p95']:.2f}), "
+            f"env.step {result['env_ms_mean']:.2f} ms/step"
+        )
+    return 0
+
+
+def cmd_bench(args) -> int:
+    from pathlib import Path
+
+    from dcmppi.execution import run_all
+    from dcmppi.experiments import get_experiment
+    from dcmppi.report import table
+    from dcmppi.results import ResultsDB
+
+    exp = get_experiment(args.experiment, args.episodes, _csv(args.controllers), _csv(args.noise))
+    db_path = Path(args.db or f"results/{exp.name}.db")
+    db_path.parent.mkdir(parents=True, exist_ok=True)
+    db = ResultsDB(db_path, exp.config())
+    done = db.done()
+    specs = exp.specs()
+    todo = [(key, spec) for key, spec in specs if key not in done]
+    print(
+        f"{exp.name}: {len(specs)} episodes ({exp.episodes} environments x "
+        f"{len(exp.noises)} noise x {len(exp.controllers)} controllers), "
+        f"{len(specs) - len(todo)} already in {db_path}, {len(todo)} to run "
+        f"on {args.workers} {args.executor} worker(s)",
+        file=sys.stderr,
+    )
+    try:
+        run_all(todo, db, args.workers, args.executor, args.ray_address, exp.name,
+                progress=not args.no_progress)  # fmt: skip
+    except KeyboardInterrupt:
+        print(f"\ninterrupted: finished episodes are saved in {db_path}; rerun to resume",
+              file=sys.stderr)  # fmt: skip
+        return 130
+    finally:
+        rows = db.rows()
+        db.close()
+    wanted = {key for key, _ in specs}
+    print(table([r for r in rows if (r["noise"], r["controller"], r["env_index"]) in wanted],
+                exp.name))  # fmt: skip
+    return 0
+
+
+def cmd_report(args) -> int:
+    from dcmppi.report import write_report
+
+    print(write_report(args.db, args.out, plots=not args.no_plots))
+    print(f"\nreport written to {args.out}/report.md (CSV: {args.out}/episodes.csv)", file=sys.stderr)
+    return 0
+
+
+def cmd_timing(args) -> int:
+    from dcmppi import timing
+
+    return timing.main(args.rest)
+
+
+def _check_names(task: str, controller: str) -> None:
+    from dcmppi import CONTROLLERS
+    from dcmppi.tasks import describe
+
+    if task not in describe():
+        raise ValueError(f"unknown task {task!r}; valid: {', '.join(describe())}")
+    if controller not in CONTROLLERS:
+        raise ValueError(f"unknown controller {controller!r}; valid: {', '.join(CONTROLLERS)}")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="dcmppi", description="MPPI / Clustered / DC / Tube-MPPI benchmark on MuJoCo tasks."
+    )
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("tasks", help="list the tasks")
+    p.set_defaults(func=cmd_tasks)
+
+    p = sub.add_parser("run", help="run one episode and print its outcome")
+    p.add_argument("--task", required=True)
+    p.add_argument("--controller", required=True)
+    p.add_argument("--noise", default="none", choices=("none", "control", "process"))
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--param", action="append", metavar="NAME=VALUE",
+                   help="controller parameter, e.g. --param K=1000 (repeatable)")  # fmt: skip
+    p.add_argument("--task-param", action="append", metavar="NAME=VALUE",
+                   help="task parameter, e.g. --task-param world=12 (repeatable)")  # fmt: skip
+    p.add_argument("--video", metavar="PATH", help="also render the episode to PATH (.mp4 or .gif)")
+    p.add_argument("--camera", default="top", choices=("top", "chase"))
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("bench", help="run an experiment into a results database (resumable)")
+    p.add_argument("--experiment", default="static", help="static | dynamic")
+    p.add_argument("--episodes", type=int, help="environments (default: the paper's count)")
+    p.add_argument("--controllers", help="comma-separated subset, e.g. mppi,clustered")
+    p.add_argument("--noise", help="comma-separated noise profiles: none,control,process")
+    p.add_argument("--workers", type=int, default=1)
+    p.add_argument("--executor", default="local", choices=("local", "ray"))
+    p.add_argument("--ray-address", help="address of an existing Ray cluster")
+    p.add_argument("--db", help="SQLite results file (default results/EXPERIMENT.db)")
+    p.add_argument("--no-progress", action="store_true")
+    p.set_defaults(func=cmd_bench)
+
+    p = sub.add_parser("report", help="tables, CSV and plots of a results database")
+    p.add_argument("--db", default="results/static.db")
+    p.add_argument("--out", default="report")
+    p.add_argument("--no-plots", action="store_true")
+    p.set_defaults(func=cmd_report)
+
+    p = sub.add_parser("timing", help="controller time per step on fixed problems",
+                       add_help=False)  # fmt: skip
+    p.add_argument("rest", nargs=argparse.REMAINDER)
+    p.set_defaults(func=cmd_timing)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (ValueError, FileNotFoundError, RuntimeError) as e:
+        print(f"dcmppi {args.command}: error: {e}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

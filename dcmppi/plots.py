@@ -1,0 +1,116 @@
+"""PNG plots of a report (matplotlib, optional extra `dcmppi[plots]`)."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+from dcmppi.report import _controller_order, _noise_order, summarize
+
+COLORS = {"mppi": "tab:red", "tube": "tab:orange", "clustered": "tab:blue", "dc": "tab:green"}
+
+
+def _pyplot():
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError as e:
+        raise RuntimeError(
+            "plots need matplotlib: pip install 'dcmppi[plots]' (or pass --no-plots)"
+        ) from e
+    return plt
+
+
+def report_plots(rows: list[dict], config: dict, out: Path) -> list[str]:
+    """Write failure_rates.png, controller_time.png and paths.png; return their names."""
+    plt = _pyplot()
+    stats = summarize(rows)
+    noises = sorted({n for n, _ in stats}, key=_noise_order)
+    controllers = sorted({c for _, c in stats}, key=_controller_order)
+    width = 0.8 / len(controllers)
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for j, c in enumerate(controllers):
+        xs, ys, err = [], [], [[], []]
+        for i, n in enumerate(noises):
+            s = stats.get((n, c))
+            if s and s["episodes"]:
+                lo, hi = s["failure_ci_pct"]
+                xs.append(i + (j - (len(controllers) - 1) / 2) * width)
+                ys.append(s["failure_pct"])
+                err[0].append(s["failure_pct"] - lo)
+                err[1].append(hi - s["failure_pct"])
+        ax.bar(xs, ys, width, yerr=err, capsize=3, label=c, color=COLORS.get(c))
+    ax.set_xticks(range(len(noises)), noises)
+    ax.set_ylabel("failure % (95 % Wilson CI)")
+    ax.set_title(f"{config['experiment']}: failure rate per noise profile")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(out / "failure_rates.png", dpi=120)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    data = [[r["ctrl_ms_mean"] for r in rows if r["status"] == "ok" and r["controller"] == c]
+            for c in controllers]  # fmt: skip
+    ax.boxplot(data, tick_labels=controllers, showfliers=False)
+    ax.set_ylabel("controller ms per step (episode means)")
+    ax.set_title("controller time per control step")
+    fig.tight_layout()
+    fig.savefig(out / "controller_time.png", dpi=120)
+    plt.close(fig)
+
+    noise = noises[0]
+    index = min(r["env_index"] for r in rows if r["noise"] == noise)
+    plot_paths(config, index, noise, controllers, out / "paths.png")
+    return ["failure_rates.png", "controller_time.png", "paths.png"]
+
+
+def plot_paths(config: dict, index: int, noise: str, controllers, path: Path) -> None:
+    """Re-run environment `index` under each controller (deterministic) and draw the paths."""
+    from dcmppi.experiments import get_experiment
+    from dcmppi.runner import EpisodeSpec, make_env, run_episode
+
+    plt = _pyplot()
+    exp = dataclasses.replace(
+        get_experiment(config["experiment"]),
+        base_seed=config["base_seed"],
+        task_params=config["task_params"],
+        controller_params=config["controller_params"],
+    )
+    spec = EpisodeSpec(exp.task, controllers[0], noise, exp.seed(index), exp.task_params,
+                       exp.controller_params)  # fmt: skip
+    obs = make_env(spec).reset().observation
+    fig, ax = plt.subplots(figsize=(9, 6.5))
+    draw_world(ax, obs)
+    for c in controllers:
+        result = run_episode(dataclasses.replace(spec, controller=c), keep_path=True)
+        p = result["path"]
+        ax.plot(p[:, 0], p[:, 1], color=COLORS.get(c), lw=1.8, label=f"{c}: {result['outcome']}")
+    ax.legend(loc="upper right", fontsize=8)
+    ax.set_title(f"{config['experiment']} environment {index}, noise {noise}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def draw_world(ax, obs) -> None:
+    """Static and moving cylinders, start and goal of a task observation, to scale."""
+    from matplotlib.patches import Circle
+
+    for x, y, r in obs["static_obstacles"]:
+        if r > 0:
+            ax.add_patch(Circle((x, y), r, color="0.35"))
+    for x, y, _, r in obs["moving_obstacles"]:
+        ax.add_patch(Circle((x, y), r, color="tab:purple", alpha=0.4))
+    x0, y0 = obs["robot_pose"][:2]
+    ax.plot(x0, y0, "o", color="magenta", ms=8, label="start")
+    ax.plot(*obs["goal"], "*", color="green", ms=16, label="goal")
+    xmin, ymin, xmax, ymax = obs["map_bounds"]
+    ax.set_xlim(xmin, xmax)
+    ax.set_ylim(ymin, ymax)
+    ax.set_aspect("equal")
+    ax.grid(alpha=0.3)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")

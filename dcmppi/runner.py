@@ -1,0 +1,133 @@
+"""Run one episode: a `dcmppi.tasks` environment driven by a `dcmppi` controller.
+
+This is the only module that joins the two sides: tasks know no controller, controllers
+import no MuJoCo. An episode is fully determined by its `EpisodeSpec`; the same spec
+gives the same outcome, path and clearance on every run, worker and executor.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+ROBOT_KEYS = ("v", "r_min", "robot_radius")  # parameters the plant and the planner share
+
+
+@dataclasses.dataclass(frozen=True)
+class EpisodeSpec:
+    """One episode: which task, world, noise and controller, with all parameters.
+
+    `seed` fixes the world and the noise sequence (the task's `random`) and, through a
+    separate stream, the controller's sampling. Every controller of a paired comparison
+    runs with the same `seed` for the same environment.
+    """
+
+    task: str
+    controller: str
+    noise: str = "none"
+    seed: int = 0
+    task_params: dict = dataclasses.field(default_factory=dict)
+    controller_params: dict = dataclasses.field(default_factory=dict)
+
+    def controller_seed(self) -> int:
+        """Seed of the controller's Generator: independent of the world's stream."""
+        return int(np.random.SeedSequence([self.seed, 1]).generate_state(1)[0])
+
+
+@dataclasses.dataclass
+class StepTimes:
+    """Wall-clock seconds spent per control step in the controller and in env.step."""
+
+    controller: list[float] = dataclasses.field(default_factory=list)
+    env: list[float] = dataclasses.field(default_factory=list)
+
+
+def make_env(spec: EpisodeSpec):
+    """The dm_control environment of `spec` (imports MuJoCo)."""
+    from dcmppi import tasks
+
+    task_kwargs = {"random": spec.seed, "noise": spec.noise, **spec.task_params}
+    return tasks.load(spec.task, task_kwargs=task_kwargs)
+
+
+def make_controller(spec: EpisodeSpec):
+    """The controller of `spec`, sharing the robot parameters with the task."""
+    from dcmppi import make_controller as _make
+
+    shared = {k: spec.task_params[k] for k in ROBOT_KEYS if k in spec.task_params}
+    params = {**shared, **spec.controller_params, "seed": spec.controller_seed()}
+    return _make(spec.controller, **params)
+
+
+def act(controller, observation) -> np.ndarray:
+    """The controller's action for a task observation, as the task's action array (1,)."""
+    omega = controller.act(
+        observation["robot_pose"],
+        observation["goal"],
+        observation["static_obstacles"],
+        observation["moving_obstacles"],
+        observation["obstacle_model"],
+    )
+    return np.array([omega], dtype=np.float64)
+
+
+def run_episode(
+    spec: EpisodeSpec,
+    on_step: Callable | None = None,
+    keep_path: bool = False,
+) -> dict:
+    """Run `spec` to termination and return its metrics.
+
+    Args:
+      spec: the episode.
+      on_step: optional callback `on_step(env, controller, time_step)` after every step
+        (videos use it); it must not change the episode.
+      keep_path: also return the robot's positions, array (steps + 1, 2), under "path".
+
+    Returns:
+      A dict: outcome ("goal" | "collision" | "time_limit"), collision, failure, steps,
+      time_to_goal [s] (None unless reached), path_length [m], min_clearance [m],
+      ctrl_ms_mean, ctrl_ms_p95, env_ms_mean, wall_s.
+    """
+    start = time.perf_counter()
+    env = make_env(spec)
+    controller = make_controller(spec)
+    controller.reset()
+    time_step = env.reset()
+    times = StepTimes()
+    positions = [time_step.observation["robot_pose"][:2].copy()]
+    if on_step is not None:
+        on_step(env, controller, time_step)
+    while not time_step.last():
+        t0 = time.perf_counter()
+        action = act(controller, time_step.observation)
+        t1 = time.perf_counter()
+        time_step = env.step(action)
+        t2 = time.perf_counter()
+        times.controller.append(t1 - t0)
+        times.env.append(t2 - t1)
+        positions.append(time_step.observation["robot_pose"][:2].copy())
+        if on_step is not None:
+            on_step(env, controller, time_step)
+    path = np.asarray(positions)
+    outcome = env.task.outcome
+    ctrl_ms = 1e3 * np.asarray(times.controller)
+    result = {
+        "outcome": outcome,
+        "collision": outcome == "collision",
+        "failure": outcome != "goal",
+        "steps": len(times.controller),
+        "time_to_goal": env.physics.data.time if outcome == "goal" else None,
+        "path_length": float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1))),
+        "min_clearance": float(env.task.min_clearance),
+        "ctrl_ms_mean": float(ctrl_ms.mean()) if ctrl_ms.size else 0.0,
+        "ctrl_ms_p95": float(np.percentile(ctrl_ms, 95)) if ctrl_ms.size else 0.0,
+        "env_ms_mean": float(1e3 * np.mean(times.env)) if times.env else 0.0,
+        "wall_s": time.perf_counter() - start,
+    }
+    if keep_path:
+        result["path"] = path
+    return result

@@ -1,0 +1,108 @@
+"""Results database and report statistics, on synthetic rows (no simulation)."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from dcmppi.report import mcnemar_exact, paired, summarize, table, wilson
+from dcmppi.results import ConfigMismatch, ResultsDB
+from dcmppi.runner import EpisodeSpec
+
+CONFIG = {"experiment": "static", "task": "forest", "base_seed": 1, "task_params": {},
+          "controller_params": {}}  # fmt: skip
+
+
+def _result(outcome, steps=100, ms=1.0):
+    return {"outcome": outcome, "collision": outcome == "collision", "failure": outcome != "goal",
+            "steps": steps, "time_to_goal": 10.0 if outcome == "goal" else None,
+            "path_length": 10.0, "min_clearance": 0.3, "ctrl_ms_mean": ms, "ctrl_ms_p95": ms,
+            "env_ms_mean": 0.1, "wall_s": 1.0}  # fmt: skip
+
+
+def _spec(controller="mppi", noise="none", seed=0):
+    return EpisodeSpec("forest", controller, noise, seed)
+
+
+def test_database_records_resumes_and_never_duplicates(tmp_path):
+    path = tmp_path / "r.db"
+    db = ResultsDB(path, CONFIG)
+    db.record(("none", "mppi", 0), _spec(), _result("goal"))
+    db.record(("none", "mppi", 1), _spec(), {"error": "PhysicsError: boom"})
+    db.close()
+    db = ResultsDB(path, CONFIG)  # reopen: rows survive, the same key is not written twice
+    assert db.done() == {("none", "mppi", 0), ("none", "mppi", 1)}
+    db.record(("none", "mppi", 0), _spec(), _result("collision"))
+    rows = db.rows()
+    assert len(rows) == 2
+    assert rows[0]["outcome"] == "goal"
+    assert rows[1]["status"] == "error" and "boom" in rows[1]["error"]
+
+
+def test_database_refuses_another_configuration(tmp_path):
+    path = tmp_path / "r.db"
+    ResultsDB(path, CONFIG).close()
+    other = {**CONFIG, "controller_params": {"K": 1000}}
+    with pytest.raises(ConfigMismatch, match="another configuration"):
+        ResultsDB(path, other)
+
+
+def test_unreadable_database_gets_a_clear_error(tmp_path):
+    path = tmp_path / "junk.db"
+    path.write_bytes(b"this is not sqlite" * 100)
+    with pytest.raises(ValueError, match="not a readable dcmppi results database"):
+        ResultsDB(path, CONFIG)
+    with pytest.raises(FileNotFoundError, match="dcmppi bench"):
+        ResultsDB(tmp_path / "missing.db")
+
+
+def test_wilson_interval_contains_the_estimate_and_matches_the_formula():
+    for k, n in [(0, 10), (3, 10), (10, 10), (12, 1000)]:
+        lo, hi = wilson(k, n)
+        assert 0 <= lo <= k / n <= hi <= 1
+    # the known interval for 0 of 10: upper bound z^2 / (n + z^2)
+    z2 = 1.959963984540054**2
+    assert wilson(0, 10)[1] == pytest.approx(z2 / (10 + z2))
+    assert all(math.isnan(x) for x in wilson(0, 0))
+
+
+def test_mcnemar_matches_the_exact_binomial_test():
+    for b, c in [(0, 0), (1, 0), (5, 1), (12, 30), (7, 7)]:
+        expected = 1.0 if b + c == 0 else stats.binomtest(b, b + c, 0.5).pvalue
+        assert mcnemar_exact(b, c) == pytest.approx(expected)
+
+
+def test_summary_and_table_match_the_rows():
+    rng = np.random.default_rng(0)
+    rows = []
+    for i in range(200):
+        for c, p in [("mppi", 0.10), ("clustered", 0.03)]:
+            r = rng.random()
+            outcome = "collision" if r < p else ("time_limit" if r < p + 0.01 else "goal")
+            res = _result(outcome, steps=int(rng.integers(50, 150)), ms=float(rng.random()))
+            rows.append({**res, "noise": "none", "controller": c, "env_index": i,
+                         "status": "ok"})  # fmt: skip
+    rows.append({**{k: None for k in _result("goal")}, "noise": "none", "controller": "mppi",
+                 "env_index": 999, "status": "error"})  # fmt: skip
+    s = summarize(rows)
+    for c in ("mppi", "clustered"):
+        ok = [r for r in rows if r["controller"] == c and r["status"] == "ok"]
+        assert s[("none", c)]["episodes"] == len(ok) == 200
+        assert s[("none", c)]["collisions"] == sum(r["collision"] for r in ok)
+        assert s[("none", c)]["failures"] == sum(r["failure"] for r in ok)
+        w = sum(r["ctrl_ms_mean"] * r["steps"] for r in ok) / sum(r["steps"] for r in ok)
+        assert s[("none", c)]["ctrl_ms"] == pytest.approx(w)
+    assert s[("none", "mppi")]["errors"] == 1
+    m = paired(rows, "none", "clustered", "mppi")
+    both = {i: {} for i in range(200)}
+    for r in rows:
+        if r["status"] == "ok":
+            both[r["env_index"]][r["controller"]] = r["collision"]
+    assert m["pairs"] == 200
+    assert m["only_a"] == sum(v["clustered"] and not v["mppi"] for v in both.values())
+    assert m["only_b"] == sum(v["mppi"] and not v["clustered"] for v in both.values())
+    text = table(rows, "static")
+    line = next(row for row in text.splitlines() if "| clustered |" in row)
+    assert f"| {s[('none', 'clustered')]['collisions']} (6) |" in line  # ours, then the paper's
+    assert f"p = {m['p']:.3g}" in line

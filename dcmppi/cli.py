@@ -52,8 +52,17 @@ def cmd_run(args) -> int:
     else:
         result = run_episode(spec)
     if args.json:
-        print(json.dumps({"task": spec.task, "controller": spec.controller, "noise": spec.noise,
-                          "seed": spec.seed, **result}))  # fmt: skip
+        print(
+            json.dumps(
+                {
+                    "task": spec.task,
+                    "controller": spec.controller,
+                    "noise": spec.noise,
+                    "seed": spec.seed,
+                    **result,
+                }
+            )
+        )
     else:
         ttg = "-" if result["time_to_goal"] is None else f"{result['time_to_goal']:.1f} s"
         print(
@@ -68,6 +77,7 @@ def cmd_run(args) -> int:
 
 
 def cmd_bench(args) -> int:
+    import dataclasses
     from pathlib import Path
 
     from dcmppi.execution import run_all
@@ -76,6 +86,11 @@ def cmd_bench(args) -> int:
     from dcmppi.results import ResultsDB
 
     exp = get_experiment(args.experiment, args.episodes, _csv(args.controllers), _csv(args.noise))
+    exp = dataclasses.replace(
+        exp,
+        task_params={**exp.task_params, **_key_values(args.task_param, "--task-param")},
+        controller_params={**exp.controller_params, **_key_values(args.param, "--param")},
+    )
     db_path = Path(args.db or f"results/{exp.name}.db")
     db_path.parent.mkdir(parents=True, exist_ok=True)
     db = ResultsDB(db_path, exp.config())
@@ -90,18 +105,30 @@ def cmd_bench(args) -> int:
         file=sys.stderr,
     )
     try:
-        run_all(todo, db, args.workers, args.executor, args.ray_address, exp.name,
-                progress=not args.no_progress)  # fmt: skip
+        run_all(
+            todo,
+            db,
+            args.workers,
+            args.executor,
+            args.ray_address,
+            exp.name,
+            progress=not args.no_progress,
+        )
     except KeyboardInterrupt:
-        print(f"\ninterrupted: finished episodes are saved in {db_path}; rerun to resume",
-              file=sys.stderr)  # fmt: skip
+        print(
+            f"\ninterrupted: finished episodes are saved in {db_path}; rerun to resume",
+            file=sys.stderr,
+        )
         return 130
     finally:
         rows = db.rows()
         db.close()
     wanted = {key for key, _ in specs}
-    print(table([r for r in rows if (r["noise"], r["controller"], r["env_index"]) in wanted],
-                exp.name))  # fmt: skip
+    print(
+        table(
+            [r for r in rows if (r["noise"], r["controller"], r["env_index"]) in wanted], exp.name
+        )
+    )
     return 0
 
 
@@ -109,7 +136,7 @@ def cmd_report(args) -> int:
     from dcmppi.report import write_report
 
     print(write_report(args.db, args.out, plots=not args.no_plots))
-    print(f"\nreport written to {args.out}/report.md (CSV: {args.out}/episodes.csv)", file=sys.stderr)
+    print(f"\nwrote {args.out}/report.md and {args.out}/episodes.csv", file=sys.stderr)
     return 0
 
 
@@ -143,10 +170,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--controller", required=True)
     p.add_argument("--noise", default="none", choices=("none", "control", "process"))
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--param", action="append", metavar="NAME=VALUE",
-                   help="controller parameter, e.g. --param K=1000 (repeatable)")  # fmt: skip
-    p.add_argument("--task-param", action="append", metavar="NAME=VALUE",
-                   help="task parameter, e.g. --task-param world=12 (repeatable)")  # fmt: skip
+    p.add_argument(
+        "--param",
+        action="append",
+        metavar="NAME=VALUE",
+        help="controller parameter, e.g. --param K=1000 (repeatable)",
+    )
+    p.add_argument(
+        "--task-param",
+        action="append",
+        metavar="NAME=VALUE",
+        help="task parameter, e.g. --task-param world=12 (repeatable)",
+    )
     p.add_argument("--video", metavar="PATH", help="also render the episode to PATH (.mp4 or .gif)")
     p.add_argument("--camera", default="top", choices=("top", "chase"))
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -160,6 +195,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, default=1)
     p.add_argument("--executor", default="local", choices=("local", "ray"))
     p.add_argument("--ray-address", help="address of an existing Ray cluster")
+    p.add_argument(
+        "--param",
+        action="append",
+        metavar="NAME=VALUE",
+        help="controller parameter for every controller (part of the configuration)",
+    )
+    p.add_argument(
+        "--task-param",
+        action="append",
+        metavar="NAME=VALUE",
+        help="task parameter (part of the configuration)",
+    )
     p.add_argument("--db", help="SQLite results file (default results/EXPERIMENT.db)")
     p.add_argument("--no-progress", action="store_true")
     p.set_defaults(func=cmd_bench)
@@ -170,8 +217,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-plots", action="store_true")
     p.set_defaults(func=cmd_report)
 
-    p = sub.add_parser("timing", help="controller time per step on fixed problems",
-                       add_help=False)  # fmt: skip
+    p = sub.add_parser("timing", help="controller time per step on fixed problems", add_help=False)
     p.add_argument("rest", nargs=argparse.REMAINDER)
     p.set_defaults(func=cmd_timing)
     return parser

@@ -52,8 +52,10 @@ def report_plots(rows: list[dict], config: dict, out: Path) -> list[str]:
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(7, 4))
-    data = [[r["ctrl_ms_mean"] for r in rows if r["status"] == "ok" and r["controller"] == c]
-            for c in controllers]  # fmt: skip
+    data = [
+        [r["ctrl_ms_mean"] for r in rows if r["status"] == "ok" and r["controller"] == c]
+        for c in controllers
+    ]
     ax.boxplot(data, tick_labels=controllers, showfliers=False)
     ax.set_ylabel("controller ms per step (episode means)")
     ax.set_title("controller time per control step")
@@ -79,8 +81,9 @@ def plot_paths(config: dict, index: int, noise: str, controllers, path: Path) ->
         task_params=config["task_params"],
         controller_params=config["controller_params"],
     )
-    spec = EpisodeSpec(exp.task, controllers[0], noise, exp.seed(index), exp.task_params,
-                       exp.controller_params)  # fmt: skip
+    spec = EpisodeSpec(
+        exp.task, controllers[0], noise, exp.seed(index), exp.task_params, exp.controller_params
+    )
     obs = make_env(spec).reset().observation
     fig, ax = plt.subplots(figsize=(9, 6.5))
     draw_world(ax, obs)

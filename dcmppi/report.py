@@ -12,7 +12,7 @@ import math
 from collections import defaultdict
 from pathlib import Path
 
-from dcmppi.experiments import PAPER
+from dcmppi.experiments import NOISE_PROFILES, PAPER
 from dcmppi.results import COLUMN_NAMES, ResultsDB
 
 Z95 = 1.959963984540054
@@ -79,8 +79,12 @@ def paired(rows: list[dict], noise: str, a: str, b: str) -> dict | None:
         return None
     only_a = sum(by[(a, i)]["collision"] and not by[(b, i)]["collision"] for i in envs)
     only_b = sum(by[(b, i)]["collision"] and not by[(a, i)]["collision"] for i in envs)
-    return {"pairs": len(envs), "only_a": only_a, "only_b": only_b,
-            "p": mcnemar_exact(only_a, only_b)}  # fmt: skip
+    return {
+        "pairs": len(envs),
+        "only_a": only_a,
+        "only_b": only_b,
+        "p": mcnemar_exact(only_a, only_b),
+    }
 
 
 def table(rows: list[dict], experiment: str) -> str:
@@ -162,7 +166,7 @@ def _fmt(x) -> str:
 
 
 def _noise_order(noise: str) -> int:
-    return ("none", "control", "process").index(noise) if noise in ("none", "control", "process") else 9
+    return NOISE_PROFILES.index(noise) if noise in NOISE_PROFILES else len(NOISE_PROFILES)
 
 
 def _controller_order(c: str) -> tuple:

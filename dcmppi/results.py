@@ -57,7 +57,7 @@ class ResultsDB:
     def __init__(self, path: str | Path, config: dict | None = None):
         self.path = Path(path)
         if config is None and not self.path.exists():
-            raise FileNotFoundError(f"{self.path}: no such results database; run `dcmppi bench` first")
+            raise FileNotFoundError(f"{self.path}: no results database; run `dcmppi bench` first")
         try:
             self._db = sqlite3.connect(self.path, timeout=30.0)
             self._db.execute("PRAGMA journal_mode=WAL")

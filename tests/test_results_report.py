@@ -10,15 +10,29 @@ from dcmppi.report import mcnemar_exact, paired, summarize, table, wilson
 from dcmppi.results import ConfigMismatch, ResultsDB
 from dcmppi.runner import EpisodeSpec
 
-CONFIG = {"experiment": "static", "task": "forest", "base_seed": 1, "task_params": {},
-          "controller_params": {}}  # fmt: skip
+CONFIG = {
+    "experiment": "static",
+    "task": "forest",
+    "base_seed": 1,
+    "task_params": {},
+    "controller_params": {},
+}
 
 
 def _result(outcome, steps=100, ms=1.0):
-    return {"outcome": outcome, "collision": outcome == "collision", "failure": outcome != "goal",
-            "steps": steps, "time_to_goal": 10.0 if outcome == "goal" else None,
-            "path_length": 10.0, "min_clearance": 0.3, "ctrl_ms_mean": ms, "ctrl_ms_p95": ms,
-            "env_ms_mean": 0.1, "wall_s": 1.0}  # fmt: skip
+    return {
+        "outcome": outcome,
+        "collision": outcome == "collision",
+        "failure": outcome != "goal",
+        "steps": steps,
+        "time_to_goal": 10.0 if outcome == "goal" else None,
+        "path_length": 10.0,
+        "min_clearance": 0.3,
+        "ctrl_ms_mean": ms,
+        "ctrl_ms_p95": ms,
+        "env_ms_mean": 0.1,
+        "wall_s": 1.0,
+    }
 
 
 def _spec(controller="mppi", noise="none", seed=0):
@@ -81,10 +95,16 @@ def test_summary_and_table_match_the_rows():
             r = rng.random()
             outcome = "collision" if r < p else ("time_limit" if r < p + 0.01 else "goal")
             res = _result(outcome, steps=int(rng.integers(50, 150)), ms=float(rng.random()))
-            rows.append({**res, "noise": "none", "controller": c, "env_index": i,
-                         "status": "ok"})  # fmt: skip
-    rows.append({**{k: None for k in _result("goal")}, "noise": "none", "controller": "mppi",
-                 "env_index": 999, "status": "error"})  # fmt: skip
+            rows.append({**res, "noise": "none", "controller": c, "env_index": i, "status": "ok"})
+    rows.append(
+        {
+            **{k: None for k in _result("goal")},
+            "noise": "none",
+            "controller": "mppi",
+            "env_index": 999,
+            "status": "error",
+        }
+    )
     s = summarize(rows)
     for c in ("mppi", "clustered"):
         ok = [r for r in rows if r["controller"] == c and r["status"] == "ok"]

@@ -92,7 +92,7 @@ def _pool(todo, workers) -> Iterable:
 
     os.environ.update(_SINGLE_THREAD)  # inherited by the workers: no BLAS oversubscription
     ctx = multiprocessing.get_context("spawn")  # no inherited MuJoCo/GL state
-    pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
+    pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_ignore_sigint)
     try:
         futures = {pool.submit(run_safely, spec): (key, spec) for key, spec in todo}
         for future in cf.as_completed(futures):
@@ -100,6 +100,13 @@ def _pool(todo, workers) -> Iterable:
             yield key, spec, future.result()
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _ignore_sigint() -> None:
+    """Workers leave Ctrl-C to the parent, which commits what finished and stops them."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _ray(todo, workers, address) -> Iterable:

@@ -1,0 +1,160 @@
+"""The benchmark runner end to end: paired episodes, executors, resume, errors, report.
+
+Episodes here use small controllers (K=32, N=20) on the `blocked` task so the tests stay
+fast; the logic under test does not depend on the sizes.
+"""
+
+import dataclasses
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+
+import pytest
+
+from dcmppi import cli
+from dcmppi.execution import run_all
+from dcmppi.experiments import EXPERIMENTS
+from dcmppi.report import summarize, write_report
+from dcmppi.results import ResultsDB
+from dcmppi.runner import EpisodeSpec, run_episode
+
+SMALL = {"K": 32, "N": 20}
+DETERMINISTIC = ("noise", "controller", "env_index", "seed", "status", "outcome", "collision",
+                 "failure", "steps", "time_to_goal", "path_length", "min_clearance", "params")  # fmt: skip
+
+
+def tiny(episodes=2, controllers=("mppi", "clustered"), noises=("none", "control")):
+    return dataclasses.replace(
+        EXPERIMENTS["static"],
+        task="blocked",
+        episodes=episodes,
+        controllers=controllers,
+        noises=noises,
+        controller_params=SMALL,
+    )
+
+
+def deterministic(rows):
+    return [{k: r[k] for k in DETERMINISTIC} for r in rows]
+
+
+def run_into(path, exp, **kwargs):
+    db = ResultsDB(path, exp.config())
+    run_all(exp.specs(), db, progress=False, **kwargs)
+    rows = db.rows()
+    db.close()
+    return rows
+
+
+def test_episode_is_reproducible_and_paired():
+    spec = EpisodeSpec("blocked", "clustered", "control", seed=7, controller_params=SMALL)
+    a, b = run_episode(spec, keep_path=True), run_episode(spec, keep_path=True)
+    assert a["outcome"] in ("goal", "collision", "time_limit")
+    assert (a["path"] == b["path"]).all() and a["min_clearance"] == b["min_clearance"]
+    # the same environment seed gives the same world for another controller
+    other = run_episode(dataclasses.replace(spec, controller="mppi"), keep_path=True)
+    assert (other["path"][0] == a["path"][0]).all()
+
+
+def test_one_and_two_workers_give_identical_rows(tmp_path):
+    exp = tiny()
+    one = run_into(tmp_path / "one.db", exp, workers=1)
+    two = run_into(tmp_path / "two.db", exp, workers=2)
+    assert len(one) == len(exp.specs()) == 8
+    assert deterministic(one) == deterministic(two)
+
+
+def test_ray_executor_matches_local(tmp_path):
+    pytest.importorskip("ray")
+    exp = tiny(episodes=1, noises=("control",))
+    local = run_into(tmp_path / "local.db", exp, workers=1)
+    remote = run_into(tmp_path / "ray.db", exp, workers=2, executor="ray")
+    assert deterministic(local) == deterministic(remote)
+
+
+def test_erroring_episode_is_recorded_and_the_run_goes_on(tmp_path):
+    exp = tiny(episodes=1, controllers=("mppi",), noises=("none",))
+    (key, good), = exp.specs()  # fmt: skip
+    bad = dataclasses.replace(good, controller_params={**SMALL, "lambda_": -1.0})
+    db = ResultsDB(tmp_path / "e.db", exp.config())
+    run_all([(("none", "mppi", 5), bad), (key, good)], db, progress=False)
+    rows = {r["env_index"]: r for r in db.rows()}
+    assert rows[5]["status"] == "error" and "lambda" in rows[5]["error"]
+    assert rows[0]["status"] == "ok" and rows[0]["outcome"] is not None
+
+
+def _bench_cmd(db, episodes):
+    return [sys.executable, "-m", "dcmppi.cli", "bench", "--experiment", "static", "--episodes",
+            str(episodes), "--controllers", "mppi", "--noise", "none", "--param", "K=32",
+            "--param", "N=20", "--db", str(db), "--no-progress"]  # fmt: skip
+
+
+def _count(db):
+    try:
+        with sqlite3.connect(db) as c:
+            return c.execute("SELECT COUNT(*) FROM episodes").fetchone()[0]
+    except sqlite3.Error:
+        return 0
+
+
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT])
+def test_bench_resumes_after_kill_or_ctrl_c_without_loss_or_duplicates(tmp_path, sig):
+    db = tmp_path / "r.db"
+    n = 6
+    proc = subprocess.Popen(_bench_cmd(db, n), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 120
+    while _count(db) < 2 and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    proc.send_signal(sig)
+    proc.wait(timeout=60)
+    partial = _count(db)
+    assert 2 <= partial <= n
+    if sig == signal.SIGINT and partial < n:
+        assert proc.returncode == 130
+    subprocess.run(_bench_cmd(db, n), check=True, capture_output=True, timeout=300)
+    rows = ResultsDB(db).rows()
+    assert sorted(r["env_index"] for r in rows) == list(range(n))  # none lost, none twice
+    assert all(r["status"] == "ok" for r in rows)
+
+
+def test_report_numbers_match_the_rows(tmp_path):
+    exp = tiny(episodes=2, controllers=("mppi", "clustered"), noises=("none",))
+    rows = run_into(tmp_path / "r.db", exp, workers=1)
+    text = write_report(tmp_path / "r.db", tmp_path / "out", plots=True)
+    s = summarize(rows)
+    for c in ("mppi", "clustered"):
+        line = next(x for x in text.splitlines() if f"| {c} |" in x)
+        assert f"| {s[('none', c)]['episodes']} |" in line
+        assert f"{s[('none', c)]['failure_pct']:.1f} [" in line
+    csv_rows = (tmp_path / "out" / "episodes.csv").read_text().strip().splitlines()
+    assert len(csv_rows) == 1 + len(rows)
+    for png in ("failure_rates.png", "controller_time.png", "paths.png"):
+        assert (tmp_path / "out" / png).stat().st_size > 1000
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["bench", "--experiment", "nope"], "unknown experiment"),
+        (["bench", "--controllers", "mppi,fancy"], "unknown controller"),
+        (["bench", "--noise", "loud"], "unknown noise"),
+        (["bench", "--episodes", "0"], "--episodes must be >= 1"),
+        (["bench", "--episodes", "1", "--workers", "0"], "--workers must be >= 1"),
+        (["run", "--task", "nope", "--controller", "mppi"], "unknown task"),
+        (["run", "--task", "blocked", "--controller", "fancy"], "unknown controller"),
+        (["bench", "--param", "K"], "NAME=VALUE"),
+    ],
+)
+def test_bad_input_gets_a_clear_error(argv, message, capsys, tmp_path):
+    assert cli.main([*argv, *(["--db", str(tmp_path / "x.db")] if argv[0] == "bench" else [])]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_unreadable_database_is_refused_by_the_cli(tmp_path, capsys):
+    junk = tmp_path / "junk.db"
+    junk.write_bytes(os.urandom(4096))
+    assert cli.main(["report", "--db", str(junk), "--out", str(tmp_path / "o")]) == 2
+    assert "not a readable dcmppi results database" in capsys.readouterr().err

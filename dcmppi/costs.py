@@ -1,0 +1,137 @@
+"""Costs of SPEC section 3 and the DC-MPPI collision term (paper Eq. 30-31).
+
+Every state x_0 .. x_N of a rollout pays the same cost (the paper's running cost psi for
+i = 0..N-1 and terminal cost phi = psi for x_N, Alg. 2):
+
+    c(x_i) = |p_i - goal| + alpha 1[x_i in the static cost map]
+             + alpha sum_l 1[|p_i - o_l(t_0)| <= r + r_l]   (moving obstacles as static)
+             + beta sum_l sum_p theta 1[|p_i - o_l^p(t_i)| <= r + r_l], theta = 1/P   (DC-MPPI)
+
+Static cylinders go into an occupancy grid built once, so their cost is one lookup per state.
+"""
+
+import numpy as np
+
+RESOLUTION = 0.1  # occupancy-grid cell size [m]
+
+
+def valid_cylinders(cylinders, name, columns=3):
+    """Rows of an (M, columns) cylinder array, radius last, with radius > 0 (0 rows are padding)."""
+    if cylinders is None:
+        return np.zeros((0, columns))
+    cylinders = np.asarray(cylinders, dtype=float)
+    if cylinders.ndim != 2 or cylinders.shape[1] != columns:
+        raise ValueError(f"{name} must have shape (rows, {columns}); got {cylinders.shape}")
+    radius = cylinders[:, -1]
+    return cylinders[radius > 0]
+
+
+class OccupancyGrid:
+    """Static cylinders inflated by the robot radius, rasterised conservatively.
+
+    A cell is occupied when its square meets any inflated disc, so a point inside a disc always
+    lands in an occupied cell (the map never misses a collision); a point at most one cell
+    diagonal (resolution * sqrt(2) = 0.14 m at 0.1 m) outside a disc may also count as one.
+    Outside the grid everything is free. The grid has a one-cell free border so lookups clip
+    indices instead of testing bounds.
+
+    Args:
+      static: (M, 3) x, y, radius of the cylinders; rows with radius 0 are ignored.
+      inflation: robot radius added to every cylinder radius [m].
+      resolution: cell size [m].
+    """
+
+    def __init__(self, static, inflation, resolution=RESOLUTION):
+        if not resolution > 0:
+            raise ValueError(f"resolution must be > 0 m; got {resolution}")
+        self.source = None if static is None else np.array(static, dtype=float)
+        cyl = valid_cylinders(static, "static")
+        self.resolution = float(resolution)
+        self.inflation = float(inflation)
+        self.empty = len(cyl) == 0
+        radius = cyl[:, 2] + inflation
+        if self.empty:
+            lo, hi = np.zeros(2), np.zeros(2)
+        else:
+            lo = (cyl[:, :2] - radius[:, None]).min(axis=0)
+            hi = (cyl[:, :2] + radius[:, None]).max(axis=0)
+        shape = np.floor((hi - lo) / resolution).astype(int) + 1
+        self.origin = lo - resolution  # corner of the free border cell
+        self.shape = (int(shape[0]) + 2, int(shape[1]) + 2)
+        grid = np.zeros(self.shape, dtype=bool)
+        for (cx, cy, _), r in zip(cyl, radius, strict=True):
+            i0, j0 = np.floor((np.array([cx, cy]) - r - self.origin) / resolution).astype(int)
+            i1, j1 = np.floor((np.array([cx, cy]) + r - self.origin) / resolution).astype(int)
+            xs = self.origin[0] + np.arange(i0, i1 + 1) * resolution  # cell lower edges
+            ys = self.origin[1] + np.arange(j0, j1 + 1) * resolution
+            nx = np.clip(cx, xs, xs + resolution) - cx  # nearest point of each cell column
+            ny = np.clip(cy, ys, ys + resolution) - cy
+            grid[i0 : i1 + 1, j0 : j1 + 1] |= nx[:, None] ** 2 + ny[None, :] ** 2 <= r * r
+        self.grid = grid
+        self._flat = grid.ravel()
+        self._limit = np.array(self.shape, dtype=float) - 1.0
+
+    def matches(self, static):
+        """True when `static` is the array this grid was built from (cheap equality)."""
+        if static is None or self.source is None:
+            return static is None and self.source is None
+        return static.shape == self.source.shape and np.array_equal(static, self.source)
+
+    def lookup(self, x, y):
+        """Occupancy at points. x, y: (...) coordinates [m]. Returns (...) bool."""
+        if self.empty:
+            return np.zeros(np.shape(x), dtype=bool)
+        inv = 1.0 / self.resolution
+        i = np.clip((x - self.origin[0]) * inv, 0.0, self._limit[0]).astype(np.intp)
+        j = np.clip((y - self.origin[1]) * inv, 0.0, self._limit[1]).astype(np.intp)
+        i *= self.shape[1]
+        i += j
+        return self._flat.take(i)
+
+
+def goal_distance(x, y, goal):
+    """Sum over steps of the distance to the goal. x, y: (N + 1, K). Returns (K,)."""
+    dx = x - goal[0]
+    dy = y - goal[1]
+    dx *= dx
+    dy *= dy
+    dx += dy
+    return np.sqrt(dx, out=dx).sum(axis=0)
+
+
+def collision_counts(x, y, tracks, distance):
+    """Number of (step, obstacle track) pairs in collision for every rollout.
+
+    A step i collides with track j when |p_i - o_j(t_i)| <= distance_j. Tracks are any set of
+    obstacle futures (DC-MPPI's P samples of each relevant obstacle) or of frozen positions; the
+    loop runs over the N + 1 steps only, with a vectorised test of all rollouts against the
+    tracks that can reach that step's rollout bounding box (no loop over K x P x L).
+
+    Args:
+      x, y: (N + 1, R) rollout positions.
+      tracks: (T, N + 1, 2) obstacle positions per step.
+      distance: (T,) collision distance (robot radius + obstacle radius) of each track.
+    Returns:
+      (R,) int counts.
+    """
+    counts = np.zeros(x.shape[1], dtype=np.intp)
+    if len(tracks) == 0:
+        return counts
+    d = distance[:, None]
+    ox, oy = tracks[..., 0], tracks[..., 1]  # (T, N + 1)
+    near = (
+        (ox >= x.min(axis=1) - d)
+        & (ox <= x.max(axis=1) + d)
+        & (oy >= y.min(axis=1) - d)
+        & (oy <= y.max(axis=1) + d)
+    )
+    d2 = distance * distance
+    for i in np.flatnonzero(near.any(axis=0)):
+        sel = near[:, i]
+        dx = x[i, :, None] - ox[sel, i]
+        dy = y[i, :, None] - oy[sel, i]
+        dx *= dx
+        dy *= dy
+        dx += dy
+        counts += np.count_nonzero(dx <= d2[sel], axis=1)
+    return counts

@@ -1,0 +1,122 @@
+"""Analytic Dubins models for the agent's rollouts and the moving obstacles' futures.
+
+The plant holds each command for one control period dt, so the models integrate exactly over
+that period with the turn rate omega held constant (a circular arc):
+
+    a = omega dt / 2
+    x += v dt sinc(a) cos(theta + a),   y += v dt sinc(a) sin(theta + a),   theta += 2 a
+
+with sinc(a) = sin(a) / a. Rollouts are time-major internally, (N + 1, 3, K): row i holds x, y and
+theta of all K rollouts at step i, so the recursion over the horizon is a short loop of vector
+additions over K (numpy's cumsum is several times slower here). The cosine and sine of the
+headings are taken in float32 (ten times faster than float64 here); the positions stay float64
+and are accurate to about 1e-6 m over a 5 s horizon, far below the 0.1 m cost-map resolution.
+"""
+
+import numpy as np
+
+_SINC_SERIES_MAX = 0.1  # |a| below which sinc(a) uses its series (error < 1e-13)
+
+
+def wrap_angle(theta):
+    """Wrap angles to [-pi, pi)."""
+    return (np.asarray(theta) + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def sinc(a):
+    """sin(a) / a, elementwise, exact at 0."""
+    a = np.asarray(a, dtype=float)
+    if a.size and np.max(np.abs(a)) < _SINC_SERIES_MAX:
+        a2 = a * a
+        return 1.0 + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 - a2 / 5040.0))
+    return np.sinc(a / np.pi)
+
+
+def dubins_step(state, omega, v, dt):
+    """One exact control period of the Dubins model.
+
+    Args:
+      state: (..., 3) x, y, theta.
+      omega: (...) turn rate held over the period.
+      v: forward speed [m/s]; dt: control period [s].
+    Returns:
+      (..., 3) the next state (theta not wrapped).
+    """
+    state = np.asarray(state, dtype=float)
+    a = 0.5 * np.asarray(omega, dtype=float) * dt
+    step = v * dt * sinc(a)
+    heading = state[..., 2] + a
+    return np.stack(
+        [
+            state[..., 0] + step * np.cos(heading),
+            state[..., 1] + step * np.sin(heading),
+            state[..., 2] + 2.0 * a,
+        ],
+        axis=-1,
+    )
+
+
+def rollout_time_major(x0, omega, v, dt):
+    """Batched exact rollouts, time-major.
+
+    Args:
+      x0: (3,) common initial state, or (3, K) one per rollout.
+      omega: (N, K) turn rates, already within the control bound.
+      v, dt: speed and control period.
+    Returns:
+      (N + 1, 3, K) states: [i, 0] = x, [i, 1] = y, [i, 2] = theta at step i (x_0 .. x_N).
+    """
+    n, k = omega.shape
+    x0 = np.asarray(x0, dtype=float)
+    out = np.empty((n + 1, 3, k))
+    out[0] = x0.reshape(3, -1)
+    out[0, 2] = wrap_angle(out[0, 2])
+    a = omega * (0.5 * dt)
+    dtheta = a + a
+    theta = out[:, 2]
+    for i in range(n):
+        np.add(theta[i], dtheta[i], out=theta[i + 1])
+    mid = (theta[:-1] + a).astype(np.float32)  # headings at mid-period, |mid| < pi + N dt omega_max
+    step = (v * dt) * sinc(a)
+    dxy = np.empty((n, 2, k))
+    np.multiply(step, np.cos(mid), out=dxy[:, 0])
+    np.multiply(step, np.sin(mid), out=dxy[:, 1])
+    xy = out[:, :2]
+    for i in range(n):
+        np.add(xy[i], dxy[i], out=xy[i + 1])
+    return out
+
+
+def rollout(state, U, v, dt):
+    """Batched exact rollouts of control sequences.
+
+    Args:
+      state: (3,) initial x, y, theta.
+      U: (K, N) or (N,) turn rates, already within the control bound.
+    Returns:
+      (K, N + 1, 3) states x_0 .. x_N (a view of the time-major array), or (N + 1, 3) for 1-D U.
+    """
+    U = np.asarray(U, dtype=float)
+    states = rollout_time_major(state, np.atleast_2d(U).T, v, dt).transpose(2, 0, 1)
+    return states[0] if U.ndim == 1 else states
+
+
+def obstacle_futures(obstacles, speed, turn_rate, n, dt):
+    """Positions of moving obstacles along exact Dubins arcs with constant speed and turn rate.
+
+    Args:
+      obstacles: (L, >=3) current x, y, heading (further columns ignored).
+      speed, turn_rate: (L, P) one constant speed [m/s] and turn rate [rad/s] per sampled future.
+      n: horizon steps; dt: control period.
+    Returns:
+      (L, P, n + 1, 2) positions at t_i = i dt, i = 0..n.
+    """
+    obstacles = np.asarray(obstacles, dtype=float)
+    t = np.arange(n + 1) * dt
+    half = 0.5 * turn_rate[..., None] * t  # (L, P, n + 1)
+    dist = speed[..., None] * t * np.sinc(half / np.pi)
+    heading = obstacles[:, 2, None, None] + half
+    out = np.empty(half.shape + (2,))
+    out[..., 0] = obstacles[:, 0, None, None] + dist * np.cos(heading)
+    out[..., 1] = obstacles[:, 1, None, None] + dist * np.sin(heading)
+    return out

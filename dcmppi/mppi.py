@@ -1,0 +1,56 @@
+"""Baseline MPPI (paper Alg. 1) over the analytic Dubins model."""
+
+import numpy as np
+
+from .controllers import Controller, register
+
+
+def mppi_weights(S, lambda_):
+    """Alg. 1 weights: w_k = exp(-(S_k - rho) / lambda) / eta with rho = min S. S: (K,)."""
+    w = np.exp((S.min() - S) / lambda_)
+    w /= w.sum()
+    return w
+
+
+def mppi_update(U0, eps, S, lambda_):
+    """Alg. 1: U = U0 + sum_k w_k eps_k.
+
+    Args:
+      U0: (N,) reference controls. eps: (N, K) perturbations (time-major). S: (K,) costs.
+    Returns:
+      U (N,), weights (K,).
+    """
+    w = mppi_weights(S, lambda_)
+    return U0 + eps @ w, w
+
+
+def effective_sample_size(w):
+    """1 / sum w^2 of normalised weights."""
+    return float(1.0 / np.dot(w, w))
+
+
+@register("mppi")
+class MPPI(Controller):
+    """Model Predictive Path Integral control, paper Alg. 1 (see Controller for parameters).
+
+    Each step: sample K perturbations, roll out clip(U0 + eps), S = J + importance term,
+    U = U0 + sum w eps, apply U[0], shift U as the next warm start.
+    """
+
+    def rollouts(self, state):
+        """Sample, roll out and score: eps (N, K), states (N + 1, 3, K), J (K,), S (K,)."""
+        u, eps = self.controls(self.U, self.sample())
+        states, J = self.evaluate(state, u)
+        S = J + self.importance(self.U, eps)
+        return eps, states, J, S
+
+    def record(self, eps, states, J, S):
+        d = self.diagnostics
+        d.eps, d.states, d.J, d.S = eps.T, states.transpose(2, 0, 1), J, S
+
+    def _solve(self, state):
+        eps, states, J, S = self.rollouts(state)
+        plan, w = mppi_update(self.U, eps, S, self.lambda_)
+        self.record(eps, states, J, S)
+        self.diagnostics.weights, self.diagnostics.ess = w, effective_sample_size(w)
+        return self.finish(plan)

@@ -1,0 +1,159 @@
+"""`dcmppi timing [--json]`: median controller time per control step on fixed problems.
+
+Problems (deterministic, built here, SPEC defaults K = 500, N = 50):
+- forest: a synthetic forest of clustered overlapping cylinders over 75 x 50 m; `mppi`,
+  `clustered` and `tube` drive the analytic Dubins model across it.
+- crowd: 100 moving cylinders drawn per SPEC section 4 (radius 1 m, speeds U(0.5, 1.5) m/s,
+  turn rates U(-0.5, 0.5) rad/s, reflecting off the boundary); `dc` with P = 25 (and the others
+  for reference).
+BLAS and OpenMP pools are limited to one thread; the figures are for one core.
+"""
+
+import argparse
+import json
+import platform
+import sys
+import time
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from . import defaults
+from .controllers import make_controller
+from .dynamics import dubins_step
+
+FOREST_CLUSTERS = 60
+
+
+def forest(seed=0):
+    """(M, 3) cylinders: clusters of 2-5 overlapping cylinders of radius 0.3-1.5 m."""
+    rng = np.random.default_rng(seed)
+    w, h = defaults.MAP_SIZE
+    rows = []
+    for _ in range(FOREST_CLUSTERS):
+        c = rng.uniform([0, 0], [w, h])
+        for _ in range(rng.integers(2, 6)):
+            rows.append([*(c + rng.normal(0, 1.0, 2)), rng.uniform(0.3, 1.5)])
+    cyl = np.array(rows)
+    start, goal = np.array([2.0, 25.0]), np.array([73.0, 25.0])
+    clear = lambda p: np.hypot(*(cyl[:, :2] - p).T) > cyl[:, 2] + 3.0  # noqa: E731
+    return cyl[clear(start) & clear(goal)], np.array([*start, 0.0]), goal
+
+
+def crowd(seed=0):
+    """(100, 4) moving obstacles x, y, heading, radius and their true (speed, turn rate)."""
+    rng = np.random.default_rng(seed)
+    w, h = defaults.MAP_SIZE
+    L = 100
+    moving = np.column_stack(
+        [
+            rng.uniform(0, w, L),
+            rng.uniform(0, h, L),
+            rng.uniform(0, 2 * np.pi, L),
+            np.full(L, defaults.MOVING_OBSTACLE_RADIUS),
+        ]
+    )
+    speed = rng.uniform(*defaults.OBSTACLE_SPEED_RANGE, L)
+    turn = rng.uniform(*defaults.OBSTACLE_TURN_RATE_RANGE, L)
+    return moving, speed, turn
+
+
+def obstacle_model():
+    """The known Gaussian (v_mean, v_std, omega_mean, omega_std) of SPEC section 4."""
+    return np.array(
+        [
+            *defaults.uniform_mean_std(*defaults.OBSTACLE_SPEED_RANGE),
+            *defaults.uniform_mean_std(*defaults.OBSTACLE_TURN_RATE_RANGE),
+        ]
+    )
+
+
+def move_crowd(moving, speed, turn, dt):
+    """One control period of the true obstacle motion, reflecting off the map boundary."""
+    nxt = dubins_step(moving[:, :3], turn, speed, dt)
+    w, h = defaults.MAP_SIZE
+    out_x = (nxt[:, 0] < 0) | (nxt[:, 0] > w)
+    out_y = (nxt[:, 1] < 0) | (nxt[:, 1] > h)
+    nxt[out_x, 2] = np.pi - nxt[out_x, 2]
+    nxt[out_y, 2] = -nxt[out_y, 2]
+    nxt[:, 0] = np.clip(nxt[:, 0], 0, w)
+    nxt[:, 1] = np.clip(nxt[:, 1], 0, h)
+    return np.column_stack([nxt, moving[:, 3]])
+
+
+def time_controller(name, problem, steps, **params):
+    """Median and p95 ms per step of a closed loop on the analytic model."""
+    ctrl = make_controller(name, seed=0, **params)
+    dt = ctrl.dt
+    if problem == "forest":
+        static, state, goal = forest()
+        moving, model = None, None
+    else:
+        static, state, goal = None, np.array([2.0, 25.0, 0.0]), np.array([73.0, 25.0])
+        moving, speed, turn = crowd()
+        model = obstacle_model()
+    times = []
+    for _ in range(steps):
+        t0 = time.perf_counter()
+        omega = ctrl.act(state, goal, static, moving, model)
+        times.append(time.perf_counter() - t0)
+        state = dubins_step(state, omega, ctrl.v, dt)
+        if moving is not None:
+            moving = move_crowd(moving, speed, turn, dt)
+    times = np.array(times[3:]) * 1e3  # skip the first steps (cost-map build, caches)
+    return float(np.median(times)), float(np.percentile(times, 95))
+
+
+CASES = (
+    ("mppi", "forest"),
+    ("clustered", "forest"),
+    ("tube", "forest"),
+    ("mppi", "crowd"),
+    ("clustered", "crowd"),
+    ("dc", "crowd"),
+)
+TARGETS = {("mppi", "forest"): 1.0, ("dc", "crowd"): 10.0}  # ms
+RATIO_TARGETS = {("clustered", "forest"): 1.5, ("tube", "forest"): 2.5}
+
+
+def main(argv=None):
+    """Run the timing benchmark; print a table or JSON. Returns 0."""
+    parser = argparse.ArgumentParser(prog="dcmppi timing", description=__doc__.split("\n")[0])
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--steps", type=int, default=100, help="control steps per case")
+    args = parser.parse_args(argv)
+    if args.steps < 5:
+        parser.error("--steps must be >= 5")
+    rows = []
+    with threadpool_limits(1):
+        for name, problem in CASES:
+            median, p95 = time_controller(name, problem, args.steps)
+            rows.append({"controller": name, "problem": problem, "median_ms": median, "p95_ms": p95})
+    base = {r["problem"]: r["median_ms"] for r in rows if r["controller"] == "mppi"}
+    for r in rows:
+        r["ratio_to_mppi"] = r["median_ms"] / base[r["problem"]]
+        key = (r["controller"], r["problem"])
+        r["target"] = (
+            f"<= {TARGETS[key]} ms"
+            if key in TARGETS
+            else f"<= {RATIO_TARGETS[key]} x mppi"
+            if key in RATIO_TARGETS
+            else ""
+        )
+    info = {"K": defaults.K, "N": defaults.N, "P": defaults.P, "steps": args.steps}
+    info["machine"] = f"{platform.processor() or platform.machine()}, python {platform.python_version()}"
+    if args.json:
+        print(json.dumps({"settings": info, "results": rows}, indent=2))
+        return 0
+    print(f"dcmppi timing: K={info['K']} N={info['N']} P={info['P']}, one thread, {args.steps} steps")
+    print(f"{'controller':<10} {'problem':<7} {'median ms':>9} {'p95 ms':>7} {'x mppi':>6}  target")
+    for r in rows:
+        print(
+            f"{r['controller']:<10} {r['problem']:<7} {r['median_ms']:9.3f} {r['p95_ms']:7.3f} "
+            f"{r['ratio_to_mppi']:6.2f}  {r['target']}"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -15,6 +15,7 @@ import numbers
 import numpy as np
 
 from . import defaults
+from ._malloc import tune_malloc
 from .costs import RESOLUTION, OccupancyGrid, collision_counts, goal_distance, valid_cylinders
 from .dynamics import rollout_time_major
 
@@ -155,6 +156,7 @@ class Controller:
         if seed is not None and not isinstance(seed, (numbers.Integral, np.random.Generator)):
             raise ValueError(f"seed must be None, an int or a np.random.Generator; got {seed!r}")
         self.seed = seed
+        tune_malloc()
         self.omega_max = defaults.omega_max(self.v, self.r_min)
         self.sigma = math.sqrt(self.Sigma)
         self._grid = None

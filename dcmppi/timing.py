@@ -128,7 +128,9 @@ def main(argv=None):
     with threadpool_limits(1):
         for name, problem in CASES:
             median, p95 = time_controller(name, problem, args.steps)
-            rows.append({"controller": name, "problem": problem, "median_ms": median, "p95_ms": p95})
+            rows.append(
+                {"controller": name, "problem": problem, "median_ms": median, "p95_ms": p95}
+            )
     base = {r["problem"]: r["median_ms"] for r in rows if r["controller"] == "mppi"}
     for r in rows:
         r["ratio_to_mppi"] = r["median_ms"] / base[r["problem"]]
@@ -141,11 +143,15 @@ def main(argv=None):
             else ""
         )
     info = {"K": defaults.K, "N": defaults.N, "P": defaults.P, "steps": args.steps}
-    info["machine"] = f"{platform.processor() or platform.machine()}, python {platform.python_version()}"
+    info["machine"] = (
+        f"{platform.processor() or platform.machine()}, python {platform.python_version()}"
+    )
     if args.json:
         print(json.dumps({"settings": info, "results": rows}, indent=2))
         return 0
-    print(f"dcmppi timing: K={info['K']} N={info['N']} P={info['P']}, one thread, {args.steps} steps")
+    print(
+        f"dcmppi timing: K={info['K']} N={info['N']} P={info['P']}, one thread, {args.steps} steps"
+    )
     print(f"{'controller':<10} {'problem':<7} {'median ms':>9} {'p95 ms':>7} {'x mppi':>6}  target")
     for r in rows:
         print(

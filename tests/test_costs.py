@@ -1,0 +1,52 @@
+"""Cost map (never misses a cylinder), goal distance and the moving-obstacle collision count."""
+
+import numpy as np
+
+from dcmppi.costs import OccupancyGrid, collision_counts, goal_distance
+
+
+def test_grid_is_conservative_and_tight():
+    rng = np.random.default_rng(1)
+    static = np.column_stack([rng.uniform(0, 20, (30, 2)), rng.uniform(0.2, 2.0, 30)])
+    static = np.vstack([static, [[5.0, 5.0, 0.0]]])  # padding row
+    grid = OccupancyGrid(static, inflation=0.5, resolution=0.1)
+    p = rng.uniform(-5, 25, (200000, 2))
+    d = np.hypot(p[:, None, 0] - static[:30, 0], p[:, None, 1] - static[:30, 1]) - static[:30, 2]
+    clearance = d.min(axis=1) - 0.5
+    occ = grid.lookup(p[:, 0], p[:, 1])
+    assert occ[clearance <= 0].all()  # inside an inflated disc: always occupied
+    assert not occ[clearance > 0.1 * np.sqrt(2)].any()  # beyond one cell diagonal: always free
+    assert not grid.lookup(np.array([-100.0, 100.0]), np.array([0.0, 50.0])).any()
+
+
+def test_grid_ignores_padding_and_matches():
+    static = np.array([[0.0, 0.0, 0.0], [3.0, 3.0, 1.0]])
+    grid = OccupancyGrid(static, 0.5)
+    assert not grid.lookup(np.array([0.0]), np.array([0.0]))[0]
+    assert grid.lookup(np.array([3.0]), np.array([4.4]))[0]
+    assert grid.matches(static.copy()) and not grid.matches(static + 1)
+    assert OccupancyGrid(None, 0.5).lookup(np.zeros(3), np.zeros(3)).sum() == 0
+
+
+def test_goal_distance_sums_steps():
+    x = np.array([[0.0, 3.0], [0.0, 0.0]])
+    y = np.array([[4.0, 4.0], [0.0, 0.0]])
+    np.testing.assert_allclose(goal_distance(x, y, np.array([0.0, 0.0])), [4.0, 5.0])
+
+
+def test_collision_counts_equal_brute_force():
+    rng = np.random.default_rng(2)
+    n, R, T = 12, 40, 15
+    x = np.cumsum(rng.normal(0, 0.5, (n + 1, R)), axis=0)
+    y = np.cumsum(rng.normal(0, 0.5, (n + 1, R)), axis=0)
+    tracks = rng.normal(0, 2.0, (T, n + 1, 2))
+    dist = rng.uniform(0.5, 2.0, T)
+    brute = np.zeros(R, dtype=int)
+    for r in range(R):
+        for i in range(n + 1):
+            for j in range(T):
+                brute[r] += (
+                    np.hypot(x[i, r] - tracks[j, i, 0], y[i, r] - tracks[j, i, 1]) <= dist[j]
+                )
+    assert brute.sum() > 0
+    np.testing.assert_array_equal(collision_counts(x, y, tracks, dist), brute)

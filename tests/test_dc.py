@@ -1,0 +1,81 @@
+"""DC-MPPI: sampled obstacle futures in the cost, brute-force equality, skipping the unreachable."""
+
+import numpy as np
+
+import dcmppi
+from dcmppi.costs import collision_counts
+from dcmppi.dynamics import rollout_time_major
+
+MODEL = np.array([1.0, 0.05, 0.0, 0.02])  # v_mean, v_std, omega_mean, omega_std
+
+
+def straight_cost(moving, seed=0, **params):
+    """DC cost of the straight rollout, and of the same with no moving obstacle."""
+    ctrl = dcmppi.make_controller("dc", seed=seed, **params)
+    ctrl.reset()
+    state, goal = np.array([0.0, 0.0, 0.0]), np.array([10.0, 0.0])
+    ctrl._goal = goal
+    ctrl._grid = dcmppi.costs.OccupancyGrid(None, ctrl.robot_radius)
+    ctrl._prepare_obstacles(state, dcmppi.costs.valid_cylinders(moving, "m", 4), MODEL)
+    _, J = ctrl.evaluate(state, np.zeros((ctrl.N, 1)))
+    ctrl._prepare_obstacles(state, np.zeros((0, 4)), MODEL)
+    _, J0 = ctrl.evaluate(state, np.zeros((ctrl.N, 1)))
+    return J[0], J0[0], ctrl
+
+
+def test_crossing_obstacle_raises_straight_cost_receding_does_not():
+    crossing = np.array([[3.0, -3.0, np.pi / 2, 1.0]])  # meets the path at x = 3 after 3 s
+    receding = np.array([[3.0, -3.0, -np.pi / 2, 1.0]])
+    J, J0, _ = straight_cost(crossing)
+    assert J > J0 + 1.0
+    J, J0, _ = straight_cost(receding)
+    assert J == J0
+
+
+def test_cost_equals_brute_force_reference():
+    rng = np.random.default_rng(5)
+    ctrl = dcmppi.make_controller("dc", K=20, N=15, P=4, seed=1)
+    state, goal = np.array([0.0, 0.0, 0.3]), np.array([8.0, 2.0])
+    moving = np.column_stack([rng.uniform(-3, 5, (6, 2)), rng.uniform(0, 6, 6), np.full(6, 1.0)])
+    ctrl.act(state, goal, None, moving, MODEL)
+    d = ctrl.diagnostics
+    futures = d.obstacle_samples
+    states = d.states  # (K, N + 1, 3)
+    radius = ctrl.robot_radius + 1.0
+    brute = np.zeros(ctrl.K)
+    for k in range(ctrl.K):
+        for i in range(ctrl.N + 1):
+            brute[k] += np.hypot(states[k, i, 0] - goal[0], states[k, i, 1] - goal[1])
+            for l in range(len(futures)):
+                for p in range(ctrl.P):
+                    o = futures[l, p, i]
+                    hit = np.hypot(states[k, i, 0] - o[0], states[k, i, 1] - o[1]) <= radius
+                    brute[k] += ctrl.beta / ctrl.P * hit
+    assert (brute > brute.min() + 1.0).any()  # some rollouts do hit sampled futures
+    np.testing.assert_allclose(d.J, brute, rtol=1e-12)
+
+
+def test_unreachable_obstacles_are_skipped_exactly():
+    ctrl = dcmppi.make_controller("dc", seed=0)
+    state, goal = np.array([10.0, 10.0, 0.0]), np.array([20.0, 10.0])
+    far = np.array([[60.0, 40.0, 0.0, 1.0]])
+    ctrl.act(state, goal, None, far, MODEL)
+    assert ctrl.diagnostics.obstacle_samples.shape[0] == 0
+    near = np.array([[13.0, 10.0, np.pi, 1.0]])
+    ctrl.act(state, goal, None, near, MODEL)
+    fut = ctrl.diagnostics.obstacle_samples
+    assert fut.shape == (1, ctrl.P, ctrl.N + 1, 2)
+    # Skipping is exact: the far obstacle's own futures would hit no rollout.
+    x = rollout_time_major(state, np.full((ctrl.N, 3), [-1.0, 0.0, 1.0]), ctrl.v, ctrl.dt)
+    far_track = np.broadcast_to(far[:, None, :2], (1, ctrl.N + 1, 2))
+    assert collision_counts(x[:, 0], x[:, 1], far_track, np.array([1.5])).sum() == 0
+
+
+def test_dc_needs_obstacle_model():
+    ctrl = dcmppi.make_controller("dc")
+    try:
+        ctrl.act(np.zeros(3), np.ones(2), None, np.array([[1.0, 1.0, 0.0, 1.0]]), None)
+    except ValueError as e:
+        assert "obstacle_model" in str(e)
+    else:
+        raise AssertionError("no ValueError")

@@ -16,7 +16,6 @@ tests/test_clustered.py checks the labels against sklearn on many random inputs.
 """
 
 import numpy as np
-from numpy.lib.stride_tricks import as_strided, sliding_window_view
 
 
 def dbscan(X, eps, min_samples):
@@ -85,16 +84,26 @@ def dbscan(X, eps, min_samples):
     return labels
 
 
+def _view(buffer, offset, strides, shape):
+    """Read-only strided view of a 1-D or C-contiguous buffer (offsets/strides in items)."""
+    size = buffer.itemsize
+    view = np.ndarray(
+        shape, buffer.dtype, buffer, offset * size, tuple(st * size for st in strides)
+    )
+    view.flags.writeable = False
+    return view
+
+
 def _after(a, w, fill):
     """(w, n) view: [k, i] = a[i + k + 1], `fill` past the end."""
     padded = np.concatenate([a, np.full(w, fill, dtype=a.dtype)])
-    return sliding_window_view(padded, w + 1)[:, 1:].T
+    return _view(padded, 1, (1, 1), (w, len(a)))
 
 
 def _before(a, w, fill):
     """(w, n) view: [k, i] = a[i - k - 1], `fill` before the start."""
     padded = np.concatenate([np.full(w, fill, dtype=a.dtype), a])
-    return sliding_window_view(padded, w + 1)[:, w - 1 :: -1].T
+    return _view(padded, w - 1, (-1, 1), (w, len(a)))
 
 
 def _before_edges(adj_up):
@@ -102,5 +111,4 @@ def _before_edges(adj_up):
     w, n = adj_up.shape
     padded = np.concatenate([np.zeros((w, w), dtype=bool), adj_up], axis=1)  # (w, n + w)
     # [k, i] -> padded[k, i + w - k - 1]: row stride n + w, minus one column per row.
-    start = padded.ravel()[w - 1 :]
-    return as_strided(start, shape=(w, n), strides=(n + w - 1, 1), writeable=False)
+    return _view(padded, w - 1, (n + w - 1, 1), (w, n))

@@ -1,1 +1,107 @@
-"""dm_control tasks of the dcmppi benchmark."""
+"""dm_control tasks of the dcmppi benchmark.
+
+    from dcmppi import tasks
+    env = tasks.load("forest", task_kwargs={"random": 0, "noise": "control"})
+
+Every task takes `random`, `noise` ("none" | "control" | "process"), the robot's `v`, `r_min`,
+`robot_radius`, the control-noise variance `Sigma`, the process-noise stds
+`process_velocity_std` and `process_yaw_rate_std`, `time_limit` [s], plus its own kwargs.
+"""
+
+from ._gl import choose_backend
+
+choose_backend()  # before dm_control imports MuJoCo
+
+import inspect  # noqa: E402
+
+from dm_control.utils import containers  # noqa: E402
+
+from .crowd import Crowd  # noqa: E402
+from .forest import Forest  # noqa: E402
+from .layout import Layout  # noqa: E402
+from .navigation import Navigation, Physics, make_environment  # noqa: E402
+from .two_valley import Blocked, Crossing  # noqa: E402
+
+SUITE = containers.TaggedTasks()
+
+
+@SUITE.add("static", "benchmark")
+def forest(task_kwargs=None, environment_kwargs=None):
+    """Static random forest, 75 x 50 m, clusters of overlapping cylinders (n_clusters=45)."""
+    return _build(Forest, task_kwargs, environment_kwargs)
+
+
+@SUITE.add("dynamic", "benchmark")
+def crowd(task_kwargs=None, environment_kwargs=None):
+    """100 moving Dubins cylinders reflecting off the walls (n_obstacles, speed/turn ranges)."""
+    return _build(Crowd, task_kwargs, environment_kwargs)
+
+
+@SUITE.add("static", "two_valley")
+def blocked(task_kwargs=None, environment_kwargs=None):
+    """One static cylinder on the start-goal line (distance=20, obstacle_radius=2)."""
+    return _build(Blocked, task_kwargs, environment_kwargs)
+
+
+@SUITE.add("dynamic", "two_valley")
+def crossing(task_kwargs=None, environment_kwargs=None):
+    """One moving cylinder that meets the robot's straight path (approach_angle=pi: head-on)."""
+    return _build(Crossing, task_kwargs, environment_kwargs)
+
+
+@SUITE.add("static")
+def layout(task_kwargs=None, environment_kwargs=None):
+    """Cylinders, start and goal from a CSV/JSON file or a BARN world (path=, world=)."""
+    return _build(Layout, task_kwargs, environment_kwargs)
+
+
+TASKS = {name: inspect.getdoc(factory).splitlines()[0] for name, factory in SUITE.items()}
+
+
+def load(name, task_kwargs=None, environment_kwargs=None):
+    """The dm_control Environment of task `name` (see TASKS).
+
+    Raises:
+      ValueError: unknown task name, unknown or bad task kwargs.
+    """
+    if name not in SUITE:
+        raise ValueError(f"unknown task {name!r}; valid tasks: {', '.join(TASKS)}")
+    return SUITE[name](task_kwargs, environment_kwargs)
+
+
+def task_kwargs(cls) -> list[str]:
+    """Names of the keyword arguments a task class accepts."""
+    names = []
+    for klass in (cls, Navigation):
+        for p in inspect.signature(klass.__init__).parameters.values():
+            if p.kind == p.KEYWORD_ONLY or p.kind == p.POSITIONAL_OR_KEYWORD:
+                if p.name != "self" and p.name not in names:
+                    names.append(p.name)
+    return names
+
+
+def _build(cls, kwargs, environment_kwargs):
+    kwargs = dict(kwargs or {})
+    unknown = sorted(set(kwargs) - set(task_kwargs(cls)))
+    if unknown:
+        raise ValueError(
+            f"unknown task_kwargs {unknown} for {cls.__name__}; "
+            f"valid: {', '.join(task_kwargs(cls))}"
+        )
+    return make_environment(cls(**kwargs), environment_kwargs)
+
+
+__all__ = [
+    "SUITE",
+    "TASKS",
+    "load",
+    "task_kwargs",
+    "Navigation",
+    "Physics",
+    "Forest",
+    "Crowd",
+    "Blocked",
+    "Crossing",
+    "Layout",
+    "make_environment",
+]

@@ -1,0 +1,50 @@
+"""`crowd`: 100 moving Dubins cylinders of SPEC section 4 (paper Sec. IV-B)."""
+
+from dcmppi import defaults
+
+from . import navigation, worlds
+
+
+class Crowd(navigation.Navigation):
+    """Moving cylinders with uniform random speeds and turn rates, reflecting off the walls.
+
+    The observation's `obstacle_model` is the Gaussian with the uniforms' mean and std.
+    """
+
+    def __init__(
+        self,
+        n_obstacles=worlds.CROWD_SIZE,
+        speed_range=defaults.OBSTACLE_SPEED_RANGE,
+        turn_rate_range=defaults.OBSTACLE_TURN_RATE_RANGE,
+        obstacle_radius=defaults.MOVING_OBSTACLE_RADIUS,
+        **kwargs,
+    ):
+        if not isinstance(n_obstacles, int) or isinstance(n_obstacles, bool) or n_obstacles < 0:
+            raise ValueError(f"n_obstacles must be an int >= 0, got {n_obstacles!r}")
+        super().__init__(**kwargs)
+        self.speed_range = _range("speed_range", speed_range, low=0.0)
+        self.turn_rate_range = _range("turn_rate_range", turn_rate_range)
+        self.obstacle_radius = navigation.check_positive("obstacle_radius", obstacle_radius)
+        self.num_moving = n_obstacles
+
+    def generate_world(self, random):
+        return worlds.generate_crowd(
+            random,
+            self.num_moving,
+            self.robot_radius,
+            self.speed_range,
+            self.turn_rate_range,
+            self.obstacle_radius,
+        )
+
+
+def _range(name, value, low=None):
+    try:
+        lo, hi = (float(x) for x in value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a pair (low, high), got {value!r}") from None
+    if not lo <= hi or (low is not None and lo < low):
+        raise ValueError(
+            f"{name} must satisfy {'' if low is None else f'{low} <= '}low <= high, got {value!r}"
+        )
+    return lo, hi

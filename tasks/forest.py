@@ -1,0 +1,21 @@
+"""`forest`: the static random forest of SPEC section 4 (paper Table I)."""
+
+from . import navigation, worlds
+
+
+class Forest(navigation.Navigation):
+    """75 x 50 m map of cylinder clusters; random start and goal >= 30 m apart.
+
+    `n_clusters` is the density: each cluster is 1-4 overlapping cylinders of radii 0.4-1.6 m
+    (see `worlds.forest_obstacles`). The observation has n_clusters * 4 static rows.
+    """
+
+    def __init__(self, n_clusters=worlds.FOREST_CLUSTERS, **kwargs):
+        if not isinstance(n_clusters, int) or isinstance(n_clusters, bool) or n_clusters < 1:
+            raise ValueError(f"n_clusters must be a positive int, got {n_clusters!r}")
+        super().__init__(**kwargs)
+        self.n_clusters = n_clusters
+        self.num_static = n_clusters * worlds.FOREST_CYLINDERS_PER_CLUSTER
+
+    def generate_world(self, random):
+        return worlds.generate_forest(random, self.n_clusters, self.robot_radius)

@@ -1,0 +1,260 @@
+"""`layout`: obstacles, start and goal from a file (CSV or JSON), e.g. any BARN world.
+
+CSV: one cylinder per line, columns `x,y,radius` or `world,x,y,radius` (the BARN file's
+format); an optional header line names the columns; blank lines and lines starting with `#`
+are skipped. JSON: {"cylinders": [[x, y, radius], ...], "start": [x, y, yaw],
+"goal": [x, y], "map_bounds": [xmin, ymin, xmax, ymax], "time_limit": seconds}, all keys but
+"cylinders" optional. Task kwargs override what the file says.
+
+BARN (Perille et al. 2020, MIT licence): pass world=N (0-299). Start, goal and time limit then
+default to the challenge's protocol (BARN_START, BARN_GOAL, BARN_TIME_LIMIT); the file is
+`path`, else $DCMPPI_BARN_CSV, else ../shared/barn/barn_cylinders.csv next to the repository
+or the working directory.
+"""
+
+import csv
+import dataclasses
+import json
+import math
+import os
+import pathlib
+
+import numpy as np
+
+from . import navigation, worlds
+
+BARN_START = (-2.25, 3.0, math.pi / 2)
+BARN_GOAL = (-2.25, 13.0)
+BARN_TIME_LIMIT = 100.0
+BARN_RELATIVE_PATH = pathlib.Path("..", "shared", "barn", "barn_cylinders.csv")
+BOUNDS_MARGIN = 2.0  # [m] added around cylinders, start and goal when no bounds are given
+
+
+@dataclasses.dataclass(frozen=True)
+class LayoutFile:
+    """What a layout file holds: cylinders (K, 3) and optional start, goal, bounds, limit."""
+
+    cylinders: np.ndarray
+    start: tuple | None = None
+    goal: tuple | None = None
+    map_bounds: tuple | None = None
+    time_limit: float | None = None
+
+
+def barn_path() -> pathlib.Path:
+    """The BARN cylinder file: $DCMPPI_BARN_CSV or ../shared/barn/barn_cylinders.csv."""
+    if os.environ.get("DCMPPI_BARN_CSV"):
+        return pathlib.Path(os.environ["DCMPPI_BARN_CSV"])
+    roots = [pathlib.Path(__file__).resolve().parents[1], pathlib.Path.cwd()]
+    for root in roots:
+        if (root / BARN_RELATIVE_PATH).is_file():
+            return (root / BARN_RELATIVE_PATH).resolve()
+    raise ValueError(
+        f"BARN file not found at {BARN_RELATIVE_PATH} relative to "
+        f"{' or '.join(str(r) for r in roots)}; pass path=... or set DCMPPI_BARN_CSV"
+    )
+
+
+def read_layout(path, world=None) -> LayoutFile:
+    """Reads a CSV or JSON layout; `world` selects one world of a multi-world CSV.
+
+    Raises:
+      ValueError: naming the file, the line and the problem, for any malformed content.
+    """
+    path = pathlib.Path(path)
+    try:
+        text = path.read_text()
+    except OSError as e:
+        raise ValueError(f"{path}: cannot read layout file ({e.strerror})") from None
+    if path.suffix.lower() == ".json":
+        if world is not None:
+            raise ValueError(
+                f"{path}: world= selects a world of a multi-world CSV; "
+                "a JSON layout holds one world"
+            )
+        return _read_json(path, text)
+    return _read_csv(path, text, world)
+
+
+def _read_csv(path, text, world):
+    columns, rows = None, []
+    for lineno, row in enumerate(csv.reader(text.splitlines()), start=1):
+        cells = [c.strip() for c in row]
+        if not any(cells) or cells[0].startswith("#"):
+            continue
+        if columns is None and not _is_number(cells[0]):
+            columns = [c.lower() for c in cells]
+            if columns not in (["x", "y", "radius"], ["world", "x", "y", "radius"]):
+                raise ValueError(
+                    f"{path}:{lineno}: header must be 'x,y,radius' or "
+                    f"'world,x,y,radius', got {','.join(cells)!r}"
+                )
+            continue
+        if columns is None:
+            columns = ["x", "y", "radius"] if len(cells) == 3 else ["world", "x", "y", "radius"]
+        if len(cells) != len(columns):
+            raise ValueError(
+                f"{path}:{lineno}: expected {len(columns)} values "
+                f"({','.join(columns)}), got {len(cells)}"
+            )
+        values = []
+        for name, cell in zip(columns, cells, strict=True):
+            if not _is_number(cell) or not math.isfinite(float(cell)):
+                raise ValueError(f"{path}:{lineno}: {name} must be a finite number, got {cell!r}")
+            values.append(float(cell))
+        if values[-1] <= 0:
+            raise ValueError(f"{path}:{lineno}: radius must be > 0, got {cells[-1]}")
+        rows.append(values)
+    if not rows:
+        raise ValueError(f"{path}: no cylinders in the file")
+    data = np.array(rows)
+    if columns[0] != "world":
+        if world is not None:
+            raise ValueError(f"{path}: world={world} given but the file has no 'world' column")
+        return LayoutFile(data)
+    if world is None:
+        raise ValueError(
+            f"{path}: the file holds several worlds; pass world=N "
+            f"({int(data[:, 0].min())}..{int(data[:, 0].max())})"
+        )
+    chosen = data[data[:, 0] == world, 1:]
+    if not len(chosen):
+        raise ValueError(
+            f"{path}: no cylinders for world {world}; the file has worlds "
+            f"{int(data[:, 0].min())}..{int(data[:, 0].max())}"
+        )
+    return LayoutFile(chosen)
+
+
+def _read_json(path, text):
+    try:
+        spec = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{path}:{e.lineno}: invalid JSON ({e.msg}, column {e.colno})") from None
+    if not isinstance(spec, dict) or "cylinders" not in spec:
+        raise ValueError(f"{path}:1: expected an object with a 'cylinders' list")
+    unknown = set(spec) - {"cylinders", "start", "goal", "map_bounds", "time_limit"}
+    if unknown:
+        raise ValueError(f"{path}: unknown keys {sorted(unknown)}")
+    lines = text.splitlines()
+    cylinders = []
+    for i, item in enumerate(spec["cylinders"] if isinstance(spec["cylinders"], list) else [None]):
+        where = f"{path}:{_line_of(lines, i)}: cylinders[{i}]"
+        if not _numbers(item, 3):
+            raise ValueError(f"{where} must be [x, y, radius] numbers, got {item!r}")
+        if item[2] <= 0:
+            raise ValueError(f"{where}: radius must be > 0, got {item[2]}")
+        cylinders.append(item)
+    if not cylinders:
+        raise ValueError(f"{path}: no cylinders in the file")
+    out = {}
+    for key, size in (("start", 3), ("goal", 2), ("map_bounds", 4), ("time_limit", None)):
+        if key in spec:
+            value = spec[key]
+            ok = _numbers([value], 1) and value > 0 if size is None else _numbers(value, size)
+            if not ok:
+                raise ValueError(
+                    f"{path}: {key} must be "
+                    f"{'a positive number' if size is None else f'{size} numbers'}, "
+                    f"got {value!r}"
+                )
+            out[key] = value if size is None else tuple(float(v) for v in value)
+    return LayoutFile(np.array(cylinders, dtype=np.float64), **out)
+
+
+def _line_of(lines, index):
+    """Best-effort line number of the index-th [x, y, r] entry of "cylinders"."""
+    count = -1
+    for lineno, line in enumerate(lines, start=1):
+        count += line.count("[") - (1 if '"cylinders"' in line else 0)
+        if count >= index:
+            return lineno
+    return len(lines)
+
+
+def _is_number(text):
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _numbers(value, size):
+    return (
+        isinstance(value, (list, tuple))
+        and len(value) == size
+        and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+            for v in value
+        )
+    )
+
+
+class Layout(navigation.Navigation):
+    """A fixed world read from a layout file (the same world every episode; noise still random).
+
+    Args:
+      path: CSV or JSON layout file (see the module docstring); default: the BARN file.
+      world: BARN world index (0-299) for multi-world CSVs.
+      start: (x, y, yaw); goal: (x, y); map_bounds: (xmin, ymin, xmax, ymax): override the file.
+    """
+
+    def __init__(self, path=None, world=None, start=None, goal=None, map_bounds=None, **kwargs):
+        super().__init__(**kwargs)
+        if world is not None and (not isinstance(world, int) or isinstance(world, bool)):
+            raise ValueError(f"world must be an int (a BARN world index), got {world!r}")
+        if path is None and world is None:
+            raise ValueError("layout needs path=<CSV or JSON file> or world=<BARN world index>")
+        layout = read_layout(barn_path() if path is None else path, world)
+        barn = world is not None
+        start = _pick("start", 3, start, layout.start, BARN_START if barn else None)
+        goal = _pick("goal", 2, goal, layout.goal, BARN_GOAL if barn else None)
+        if start is None or goal is None:
+            raise ValueError(
+                "layout: pass start=(x, y, yaw) and goal=(x, y) in task_kwargs, or "
+                "put them in a JSON layout file"
+            )
+        if map_bounds is None and layout.map_bounds is None:
+            points = np.vstack(
+                [
+                    layout.cylinders[:, :2] - layout.cylinders[:, 2:],
+                    layout.cylinders[:, :2] + layout.cylinders[:, 2:],
+                    [start[:2], goal],
+                ]
+            )
+            map_bounds = (
+                *(points.min(axis=0) - BOUNDS_MARGIN),
+                *(points.max(axis=0) + BOUNDS_MARGIN),
+            )
+        bounds = np.array(_pick("map_bounds", 4, map_bounds, layout.map_bounds, None))
+        if not (bounds[:2] < bounds[2:]).all():
+            raise ValueError(
+                f"map_bounds must be (xmin, ymin, xmax, ymax) with min < max, got {tuple(bounds)}"
+            )
+        if self._time_limit is None:
+            self._time_limit = layout.time_limit or (BARN_TIME_LIMIT if barn else None)
+        self._world = worlds.make_world(start, goal, static=layout.cylinders, bounds=bounds)
+        self.num_static = len(self._world.static)
+        self._bounds = bounds
+
+    @property
+    def map_bounds(self):
+        return self._bounds
+
+    def generate_world(self, random):
+        return self._world
+
+
+def _pick(name, size, *candidates):
+    """The first candidate given, checked to be `size` finite numbers."""
+    value = next((c for c in candidates if c is not None), None)
+    if value is None:
+        return None
+    try:
+        value = tuple(float(v) for v in value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be {size} numbers, got {value!r}") from None
+    if len(value) != size or not all(math.isfinite(v) for v in value):
+        raise ValueError(f"{name} must be {size} finite numbers, got {value!r}")
+    return value

@@ -1,0 +1,485 @@
+"""The shared plant and task of every benchmark world: a Dubins robot among cylinders.
+
+`Physics` owns the MuJoCo model (models/arena.xml plus a fixed number of obstacle slots), moves
+the moving obstacles every physics substep, and records robot-obstacle contacts and the
+analytic clearance. `Navigation` is the dm_control task: it draws a `worlds.World` per
+episode, maps the turn-rate action to the actuators, injects noise, and ends the episode on
+goal, collision or time limit. Subclasses only say how a world is drawn.
+"""
+
+import collections
+import copy
+import functools
+import math
+from importlib import resources
+
+import mujoco
+import numpy as np
+from dm_control import mujoco as dm_mujoco
+from dm_control.mujoco.wrapper import core
+from dm_control.rl import control
+from dm_control.suite import base
+from dm_env import specs
+
+from dcmppi import defaults
+
+from . import worlds
+
+NOISE_PROFILES = ("none", "control", "process")
+PROCESS_VELOCITY_STD = 0.1  # [m/s] std of the planar velocity disturbance, per axis
+PROCESS_YAW_RATE_STD = 0.1  # [rad/s] std of the yaw-rate disturbance
+OBSTACLE_HALF_HEIGHT = 0.5  # [m]
+PARKED = -1000.0  # [m] x, y of unused static slots (also disabled and hidden)
+_HIDDEN_GROUP = 3  # geom group that MuJoCo's renderer hides by default
+
+
+@functools.lru_cache(maxsize=32)
+def _compiled_model(num_static, num_moving, robot_radius) -> mujoco.MjModel:
+    """The arena with num_static world-geom slots and num_moving mocap-body slots."""
+    xml = resources.files("dcmppi.models").joinpath("arena.xml").read_text()
+    spec = mujoco.MjSpec.from_string(xml)
+    spec.geom("robot").size[0] = robot_radius
+    static_class = spec.find_default("static_obstacle")
+    for i in range(num_static):
+        spec.worldbody.add_geom(
+            static_class, name=f"static_{i}", pos=[PARKED, PARKED, OBSTACLE_HALF_HEIGHT]
+        )
+    moving_class, heading_class = (
+        spec.find_default("moving_obstacle"),
+        spec.find_default("moving_heading"),
+    )
+    for i in range(num_moving):
+        body = spec.worldbody.add_body(
+            name=f"moving_{i}", mocap=True, pos=[PARKED, PARKED, OBSTACLE_HALF_HEIGHT]
+        )
+        body.add_geom(moving_class, name=f"moving_{i}")
+        body.add_geom(
+            heading_class, name=f"moving_heading_{i}", pos=[0.5, 0.0, OBSTACLE_HALF_HEIGHT + 0.02]
+        )
+    return spec.compile()
+
+
+def _set_cylinders(model, ids, radius, half_height=OBSTACLE_HALF_HEIGHT):
+    """Sets cylinder sizes and the bounding volumes MuJoCo's collision broadphase uses."""
+    model.geom_size[ids, 0] = radius
+    model.geom_size[ids, 1] = half_height
+    model.geom_rbound[ids] = np.hypot(radius, half_height)
+    model.geom_aabb[ids, :3] = 0.0
+    model.geom_aabb[ids, 3] = radius
+    model.geom_aabb[ids, 4] = radius
+    model.geom_aabb[ids, 5] = half_height
+
+
+class Physics(dm_mujoco.Physics):
+    """Physics with obstacle slots, moving obstacles and contact/clearance bookkeeping.
+
+    Only obstacles that the robot could reach within the coming control step take part in
+    MuJoCo's collision detection (their conaffinity is switched on at the start of each
+    `step`); the rest are skipped, which keeps a step cheap with hundreds of obstacles.
+    """
+
+    @classmethod
+    def for_slots(cls, num_static, num_moving, bounds, robot_radius=defaults.ROBOT_RADIUS):
+        """A new Physics with fixed obstacle slots and the top camera/floor fitted to bounds."""
+        model = copy.copy(_compiled_model(num_static, num_moving, float(robot_radius)))
+        physics = cls.from_model(core.MjModel(model))
+        physics._bind(num_static, num_moving, float(robot_radius))
+        physics._fit_view(np.asarray(bounds, dtype=np.float64))
+        return physics
+
+    def _bind(self, num_static, num_moving, robot_radius):
+        m, d = self.model.ptr, self.data.ptr
+        self._m, self._d = m, d
+        self.robot_radius = robot_radius
+        self._robot_geom = m.geom("robot").id
+        first = m.geom("static_0").id if num_static else 0
+        self._static_ids = np.arange(first, first + num_static)
+        self._moving_ids = np.array([m.geom(f"moving_{i}").id for i in range(num_moving)], int)
+        self._moving_bodies = np.array([m.body(f"moving_{i}").id for i in range(num_moving)], int)
+        mocap = m.body_mocapid[self._moving_bodies]
+        if num_moving and not (np.diff(mocap) == 1).all():
+            raise RuntimeError("moving obstacle mocap slots are not contiguous")
+        self._mocap = slice(mocap[0], mocap[-1] + 1) if num_moving else slice(0, 0)
+        self._qpos, self._qvel, self._ctrl = d.qpos, d.qvel, d.ctrl
+        self._qfrc_applied = d.qfrc_applied
+        self._gain = m.actuator_gainprm[:, 0].copy()  # kv of forward, lateral, turn
+        self._mocap_xy = d.mocap_pos[self._mocap, :2]
+        self._mocap_quat = d.mocap_quat[self._mocap]
+        self._moving = None
+        self._moving_obs = np.zeros((num_moving, 4))
+        self._solid = np.zeros((0, 3))
+        self._solid_ids = self._static_ids[:0]
+        self._speed_bound = 0.0
+        self.collided = False
+        self.first_contact = None
+        self.min_clearance = np.inf
+        self._clearance = np.inf
+        self._static_clearance = np.zeros(0)
+        self._moving_clearance = np.zeros(num_moving)
+
+    def _fit_view(self, bounds):
+        """Centres floor and top camera on the map; camera height shows it all at 16:9."""
+        m = self._m
+        centre = 0.5 * (bounds[:2] + bounds[2:])
+        extent = bounds[2:] - bounds[:2] + 4.0
+        floor = m.geom("floor").id
+        m.geom_pos[floor, :2] = centre
+        m.geom_size[floor, :2] = 0.5 * extent + 20.0
+        cam = m.camera("top").id
+        half = np.tan(np.deg2rad(m.cam_fovy[cam]) / 2.0)
+        m.cam_pos[cam] = [*centre, max(extent[1], extent[0] * 9.0 / 16.0) / (2.0 * half)]
+
+    # Episode set-up -------------------------------------------------------------------------
+
+    def set_world(self, world: worlds.World, v):
+        """Places robot (moving at speed v), goal and obstacles of `world`; clears the records."""
+        m = self._m
+        static = world.static
+        solid = static[:, 2] > 0
+        ids = self._static_ids
+        m.geom_pos[ids, :2] = np.where(solid[:, None], static[:, :2], PARKED)
+        _set_cylinders(m, ids, np.where(solid, static[:, 2], 1.0))
+        m.geom_conaffinity[ids] = 0
+        m.geom_group[ids] = np.where(solid, 0, _HIDDEN_GROUP)
+        self._solid = static[solid]
+        self._solid_ids = ids[solid]
+        self._solid_z = self._solid[:, 0] + 1j * self._solid[:, 1]
+
+        goal = m.geom("goal").id
+        m.geom_pos[goal, :2] = world.goal
+        m.geom_size[goal, 0] = defaults.GOAL_TOLERANCE
+
+        moving = world.moving
+        self._moving_obs[:, 3] = moving[:, 3]
+        _set_cylinders(m, self._moving_ids, moving[:, 3])
+        m.geom_conaffinity[self._moving_ids] = 0
+        m.body_conaffinity[self._moving_bodies] = 0
+        if len(moving):
+            self._moving = worlds.DubinsObstacles(
+                moving[:, :3],
+                world.moving_speed,
+                world.moving_turn_rate,
+                world.map_bounds,
+                self.timestep(),
+            )
+            self._mocap_xy[:] = moving[:, :2]
+            self._set_mocap_heading(moving[:, 2])
+        else:
+            self._moving = None
+        # Fastest closing speed robot-obstacle, with room for disturbances [m/s].
+        top_speed = np.abs(world.moving_speed).max() if len(moving) else 0.0
+        self._speed_bound = 2.0 * v + 1.0 + top_speed
+
+        x, y, yaw = world.start
+        self._qpos[:3] = world.start
+        self._qvel[:3] = [v * np.cos(yaw), v * np.sin(yaw), 0.0]
+        self._ctrl[:] = [v, 0.0, 0.0]
+        self._qfrc_applied[:] = 0.0
+        self.collided = False
+        self.first_contact = None
+        moving_z = (moving[:, 0] + 1j * moving[:, 1])[None] if len(moving) else None
+        self._clearance = self._update_clearance(np.array([complex(x, y)]), moving_z)[0]
+        self.min_clearance = self._clearance
+
+    def _set_mocap_heading(self, heading):
+        self._mocap_quat[:, 0] = np.cos(0.5 * heading)
+        self._mocap_quat[:, 3] = np.sin(0.5 * heading)
+
+    # Control --------------------------------------------------------------------------------
+
+    def set_command(self, v, omega):
+        """Actuator targets: forward speed v, lateral speed 0, turn rate omega."""
+        self._ctrl[0] = v
+        self._ctrl[1] = 0.0
+        self._ctrl[2] = omega
+
+    def set_disturbance(self, velocity):
+        """Holds generalized forces that offset the robot's (vx, vy, yaw rate) by `velocity`.
+
+        Each force is gain x velocity, so against the velocity actuators the robot settles
+        (after the actuator lag) at the commanded velocity plus `velocity`.
+        """
+        self._qfrc_applied[:3] = self._gain * velocity
+
+    # Simulation -----------------------------------------------------------------------------
+
+    def step(self, nstep=1):
+        """Advances nstep physics steps, moving the obstacles and recording contacts each one.
+
+        Every substep integrates (mj_step2), moves the mocap obstacles to the new time, then
+        recomputes positions and contacts (mj_step1), so contacts always compare robot and
+        obstacles at the same instant.
+        """
+        m, d = self._m, self._d
+        self._activate_near(nstep * self.timestep())
+        moving = moving_xy = None
+        if self._moving is not None:
+            moving = self._moving.advance(nstep)
+            moving_xy = np.stack([moving.real, moving.imag], axis=-1)
+        robot = np.empty(nstep, dtype=np.complex128)
+        qpos = self._qpos
+        with self.check_invalid_state():
+            for k in range(nstep):
+                mujoco.mj_step2(m, d)
+                if moving_xy is not None:
+                    self._mocap_xy[:] = moving_xy[k]
+                mujoco.mj_step1(m, d)
+                robot[k] = complex(qpos[0], qpos[1])
+                if d.ncon and not self.collided:
+                    self._record_contact()
+        if moving is not None:
+            self._set_mocap_heading(self._moving.theta)
+        clearance = self._update_clearance(robot, moving)
+        self._clearance = clearance[-1]
+        self.min_clearance = min(self.min_clearance, clearance.min())
+
+    def _activate_near(self, duration):
+        """Enables collisions with the obstacles the robot could touch within `duration`."""
+        reach = 0.5 + self._speed_bound * duration
+        m = self._m
+        m.geom_conaffinity[self._solid_ids] = self._static_clearance < reach
+        if len(self._moving_ids):
+            near = self._moving_clearance < reach
+            m.geom_conaffinity[self._moving_ids] = near
+            m.body_conaffinity[self._moving_bodies] = near
+
+    def _record_contact(self):
+        d = self._d
+        self.collided = True
+        a, b = d.contact.geom[0]
+        self.first_contact = dict(
+            time=float(d.time),
+            robot_xy=self._qpos[:2].copy(),
+            geom=self._m.geom(int(b if a == self._robot_geom else a)).name,
+            distance=float(d.contact.dist[0]),
+        )
+
+    def _update_clearance(self, robot, moving):
+        """Minimum clearance (n,) at robot centres (n,) complex, obstacles moving (n, L) complex.
+
+        Also keeps each obstacle's clearance at the last centre for `_activate_near`.
+        """
+        clearance = np.full(len(robot), np.inf)
+        self._static_clearance = np.zeros(0)
+        if len(self._solid):
+            each = np.abs(robot[:, None] - self._solid_z) - self._solid[:, 2]
+            self._static_clearance = each[-1] - self.robot_radius
+            clearance = each.min(axis=1)
+        if moving is not None:
+            each = np.abs(moving - robot[:, None]) - self._moving_obs[:, 3]
+            self._moving_clearance = each[-1] - self.robot_radius
+            clearance = np.minimum(clearance, each.min(axis=1))
+        return clearance - self.robot_radius
+
+    # Readouts -------------------------------------------------------------------------------
+
+    def robot_pose(self):
+        """(3,) x, y, yaw of the robot, yaw wrapped to [-pi, pi)."""
+        pose = self._qpos[:3].copy()
+        pose[2] = (pose[2] + math.pi) % (2.0 * math.pi) - math.pi
+        return pose
+
+    def robot_velocity(self):
+        """(3,) world-frame vx, vy and yaw rate."""
+        return self._qvel[:3].copy()
+
+    def moving_obstacles(self):
+        """(L, 4) x, y, heading, radius of the moving obstacles now."""
+        obs = self._moving_obs.copy()
+        if self._moving is not None:
+            obs[:, 0] = self._moving.z.real
+            obs[:, 1] = self._moving.z.imag
+            obs[:, 2] = self._moving.theta
+        return obs
+
+    def clearance(self):
+        """Minimum robot-obstacle surface distance now [m] (inf without obstacles)."""
+        return self._clearance
+
+
+class Navigation(base.Task):
+    """Drive a constant-speed Dubins robot to the goal without touching an obstacle.
+
+    Action: (1,) turn rate omega, clipped to [-v / r_min, v / r_min]; the plant is commanded
+    forward speed v, lateral speed 0, turn rate omega (+ noise).
+    Reward: 1 on the step that reaches the goal, else 0. Discount: 0 on goal and collision
+    (terminal), 1 on the time limit (truncation).
+    Noise (drawn from the task's random): "control" adds N(0, Sigma) to the applied turn rate
+    each control step; "process" adds that, plus velocity disturbances (std
+    process_velocity_std per planar axis, process_yaw_rate_std for the yaw rate) held for the
+    control step as forces that the actuators have to fight.
+    """
+
+    def __init__(
+        self,
+        random=None,
+        noise="none",
+        v=defaults.V,
+        r_min=defaults.R_MIN,
+        robot_radius=defaults.ROBOT_RADIUS,
+        Sigma=defaults.SIGMA,
+        process_velocity_std=PROCESS_VELOCITY_STD,
+        process_yaw_rate_std=PROCESS_YAW_RATE_STD,
+        time_limit=None,
+    ):
+        """Args: see the class docstring; time_limit [s] defaults to the task's own."""
+        if noise not in NOISE_PROFILES:
+            raise ValueError(f"noise must be one of {NOISE_PROFILES}, got {noise!r}")
+        self.v = check_positive("v", v)
+        self.r_min = check_positive("r_min", r_min)
+        self.robot_radius = check_positive("robot_radius", robot_radius)
+        self.Sigma = check_positive("Sigma", Sigma, allow_zero=True)
+        self.process_std = np.array(
+            [
+                check_positive("process_velocity_std", process_velocity_std, allow_zero=True),
+                process_velocity_std,
+                check_positive("process_yaw_rate_std", process_yaw_rate_std, allow_zero=True),
+            ]
+        )
+        self._time_limit = None if time_limit is None else check_positive("time_limit", time_limit)
+        self.noise = noise
+        self.omega_max = defaults.omega_max(self.v, self.r_min)
+        super().__init__(random=random)
+        self._noise_random = np.random.RandomState(0)
+        self.world = None
+        self._outcome = None
+        self._min_clearance = np.inf
+
+    # What subclasses provide ------------------------------------------------------------------
+
+    num_static = 1  # static slots (fixed per instance)
+    num_moving = 0  # moving slots (fixed per instance)
+
+    def generate_world(self, random) -> worlds.World:
+        """Draws this episode's world from `random` (a RandomState)."""
+        raise NotImplementedError
+
+    @property
+    def map_bounds(self) -> np.ndarray:
+        """(4,) xmin, ymin, xmax, ymax of this instance's map."""
+        return worlds.map_bounds()
+
+    @property
+    def time_limit(self) -> float:
+        """Episode time limit [s]."""
+        if self._time_limit is not None:
+            return self._time_limit
+        return worlds.default_time_limit(self.map_bounds, self.v)
+
+    # Results ----------------------------------------------------------------------------------
+
+    @property
+    def outcome(self):
+        """None while running, then "goal", "collision" or "time_limit"."""
+        return self._outcome
+
+    @property
+    def min_clearance(self) -> float:
+        """Minimum robot-obstacle surface distance so far this episode [m]."""
+        return self._min_clearance
+
+    # dm_control Task API ----------------------------------------------------------------------
+
+    def initialize_episode(self, physics):
+        world_seed, noise_seed = self.random.randint(0, 2**31 - 1, size=2)
+        world = self.generate_world(np.random.RandomState(world_seed))
+        if world.static.shape != (self.num_static, 3) or world.moving.shape != (self.num_moving, 4):
+            raise RuntimeError(f"{type(self).__name__} drew a world of the wrong size")
+        self.world = world
+        self._noise_random = np.random.RandomState(noise_seed)
+        physics.set_world(world, self.v)
+        self._outcome = None
+        self._min_clearance = physics.min_clearance
+        self._observation = collections.OrderedDict(
+            robot_pose=None,
+            goal=world.goal,
+            static_obstacles=world.static,
+            moving_obstacles=None,
+            obstacle_model=world.obstacle_model,
+            map_bounds=world.map_bounds,
+            clearance=None,
+        )
+        super().initialize_episode(physics)
+
+    def before_step(self, action, physics):
+        omega = np.asarray(action, dtype=np.float64).reshape(-1)
+        if omega.shape != (1,) or not np.isfinite(omega[0]):
+            raise ValueError(f"action must be a finite (1,) turn rate omega, got {action!r}")
+        omega = min(max(omega[0], -self.omega_max), self.omega_max)
+        if self.noise != "none":
+            omega += np.sqrt(self.Sigma) * self._noise_random.randn()
+        if self.noise == "process":
+            physics.set_disturbance(self.process_std * self._noise_random.randn(3))
+        physics.set_command(self.v, omega)
+
+    def after_step(self, physics):
+        self._min_clearance = physics.min_clearance
+        if self._outcome is not None:
+            return
+        goal = self.world.goal if self.world is not None else None
+        x, y = physics.robot_pose()[:2]
+        if physics.collided:
+            self._outcome = "collision"
+        elif goal is not None and np.hypot(x - goal[0], y - goal[1]) <= defaults.GOAL_TOLERANCE:
+            self._outcome = "goal"
+        elif physics.time() >= self.time_limit - 0.5 * physics.timestep():
+            self._outcome = "time_limit"
+
+    def get_observation(self, physics):
+        obs = self._observation.copy()
+        obs["robot_pose"] = physics.robot_pose()
+        obs["moving_obstacles"] = physics.moving_obstacles()
+        obs["clearance"] = np.array([physics.clearance()])
+        return obs
+
+    def get_reward(self, physics):
+        return 1.0 if self._outcome == "goal" else 0.0
+
+    def get_termination(self, physics):
+        if self._outcome is None:
+            return None
+        return 1.0 if self._outcome == "time_limit" else 0.0
+
+    def action_spec(self, physics):
+        return specs.BoundedArray((1,), np.float64, -self.omega_max, self.omega_max, name="omega")
+
+    def observation_spec(self, physics):
+        shapes = dict(
+            robot_pose=(3,),
+            goal=(2,),
+            static_obstacles=(self.num_static, 3),
+            moving_obstacles=(self.num_moving, 4),
+            obstacle_model=(4,),
+            map_bounds=(4,),
+            clearance=(1,),
+        )
+        return collections.OrderedDict(
+            (name, specs.Array(shape, np.float64, name=name)) for name, shape in shapes.items()
+        )
+
+
+def check_positive(name, value, allow_zero=False):
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number, got {value!r}") from None
+    if not np.isfinite(value) or value < 0 or (value == 0 and not allow_zero):
+        bound = ">= 0" if allow_zero else "> 0"
+        raise ValueError(f"{name} must be finite and {bound}, got {value}")
+    return value
+
+
+def make_environment(task: Navigation, environment_kwargs=None) -> control.Environment:
+    """The dm_control Environment of `task`: control step defaults.DT, substeps PHYSICS_TIMESTEP."""
+    environment_kwargs = dict(environment_kwargs or {})
+    if "time_limit" in environment_kwargs:
+        raise ValueError(
+            "set the time limit with task_kwargs={'time_limit': seconds}: the task "
+            "ends the episode itself so that it can report the outcome"
+        )
+    environment_kwargs.setdefault("control_timestep", defaults.DT)
+    physics = Physics.for_slots(
+        task.num_static, task.num_moving, task.map_bounds, task.robot_radius
+    )
+    physics.model.opt.timestep = defaults.PHYSICS_TIMESTEP
+    return control.Environment(physics, task, **environment_kwargs)

@@ -1,0 +1,94 @@
+"""`blocked` and `crossing`: one obstacle on the straight line from start to goal (paper Fig. 1-4).
+
+The robot starts facing the goal, `distance` metres away, in the middle of the 75 x 50 m map.
+Averaging a left and a right detour drives into the obstacle: the two-valley case that
+rollout clustering is for.
+"""
+
+import numpy as np
+
+from dcmppi import defaults
+
+from . import navigation, worlds
+
+
+def _line(distance, bounds):
+    """Start pose (3,) and goal (2,) on a horizontal line through the map centre."""
+    centre = 0.5 * (bounds[:2] + bounds[2:])
+    start = np.array([centre[0] - 0.5 * distance, centre[1], 0.0])
+    return start, start[:2] + [distance, 0.0]
+
+
+class Blocked(navigation.Navigation):
+    """A static cylinder of `obstacle_radius` halfway between start and goal.
+
+    `lateral_jitter` > 0 shifts it sideways by U(-lateral_jitter, lateral_jitter) per episode.
+    """
+
+    def __init__(self, distance=20.0, obstacle_radius=2.0, lateral_jitter=0.0, **kwargs):
+        super().__init__(**kwargs)
+        self.distance = navigation.check_positive("distance", distance)
+        self.obstacle_radius = navigation.check_positive("obstacle_radius", obstacle_radius)
+        self.lateral_jitter = navigation.check_positive(
+            "lateral_jitter", lateral_jitter, allow_zero=True
+        )
+
+    def generate_world(self, random):
+        bounds = worlds.map_bounds()
+        start, goal = _line(self.distance, bounds)
+        offset = random.uniform(-self.lateral_jitter, self.lateral_jitter)
+        middle = 0.5 * (start[:2] + goal)
+        static = np.array([[middle[0], middle[1] + offset, self.obstacle_radius]])
+        return worlds.make_world(start, goal, static=static, bounds=bounds)
+
+
+class Crossing(navigation.Navigation):
+    """One moving cylinder that reaches the robot's straight path just when the robot does.
+
+    If the robot drove straight at speed v, the obstacle's centre would be on the robot's
+    centre at `meet_fraction` of the way, moving in direction `approach_angle` relative to
+    the robot's heading (pi: head-on, the paper's Fig. 4; pi/2: from the right). The
+    obstacle's start is found by running its Dubins arc backwards from that meeting.
+    """
+
+    def __init__(
+        self,
+        distance=20.0,
+        meet_fraction=0.5,
+        approach_angle=np.pi,
+        obstacle_speed=1.0,
+        obstacle_turn_rate=0.0,
+        obstacle_radius=defaults.MOVING_OBSTACLE_RADIUS,
+        **kwargs,
+    ):
+        super().__init__(**kwargs)
+        self.distance = navigation.check_positive("distance", distance)
+        self.meet_fraction = navigation.check_positive("meet_fraction", meet_fraction)
+        if self.meet_fraction > 1.0:
+            raise ValueError(f"meet_fraction must be in (0, 1], got {meet_fraction}")
+        self.approach_angle = float(approach_angle)
+        self.obstacle_speed = navigation.check_positive("obstacle_speed", obstacle_speed)
+        self.obstacle_turn_rate = float(obstacle_turn_rate)
+        self.obstacle_radius = navigation.check_positive("obstacle_radius", obstacle_radius)
+        self.num_moving = 1
+
+    def generate_world(self, random):
+        bounds = worlds.map_bounds()
+        start, goal = _line(self.distance, bounds)
+        t_meet = self.meet_fraction * self.distance / self.v
+        meet = [
+            *(start[:2] + [self.meet_fraction * self.distance, 0.0]),
+            start[2] + self.approach_angle,
+        ]
+        x, y, heading = worlds.dubins_pose(
+            meet, self.obstacle_speed, self.obstacle_turn_rate, -t_meet
+        )
+        moving = np.array([[x, y, worlds.wrap_angle(heading), self.obstacle_radius]])
+        return worlds.make_world(
+            start,
+            goal,
+            moving=moving,
+            speed=[self.obstacle_speed],
+            turn_rate=[self.obstacle_turn_rate],
+            bounds=bounds,
+        )

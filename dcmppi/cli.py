@@ -28,7 +28,7 @@ def _csv(text: str | None) -> tuple[str, ...] | None:
 def cmd_tasks(args) -> int:
     from dcmppi import tasks
 
-    for name, description in tasks.describe().items():
+    for name, description in tasks.TASKS.items():
         print(f"{name:10s} {description}")
     return 0
 
@@ -147,13 +147,15 @@ def cmd_timing(args) -> int:
 
 
 def _check_names(task: str, controller: str) -> None:
-    from dcmppi import CONTROLLERS
-    from dcmppi.tasks import describe
+    from dcmppi import controller_names
+    from dcmppi.tasks import TASKS
 
-    if task not in describe():
-        raise ValueError(f"unknown task {task!r}; valid: {', '.join(describe())}")
-    if controller not in CONTROLLERS:
-        raise ValueError(f"unknown controller {controller!r}; valid: {', '.join(CONTROLLERS)}")
+    if task not in TASKS:
+        raise ValueError(f"unknown task {task!r}; valid: {', '.join(TASKS)}")
+    if controller not in controller_names():
+        raise ValueError(
+            f"unknown controller {controller!r}; valid: {', '.join(controller_names())}"
+        )
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -122,13 +122,13 @@ def get_experiment(
             raise ValueError(f"--episodes must be >= 1, got {episodes}")
         exp = dataclasses.replace(exp, episodes=episodes)
     if controllers is not None:
-        from dcmppi import CONTROLLERS
+        from dcmppi import controller_names
 
-        bad = [c for c in controllers if c not in CONTROLLERS]
+        bad = [c for c in controllers if c not in controller_names()]
         if bad or not controllers:
             raise ValueError(
                 f"unknown controller(s) {', '.join(bad) or '(none given)'}; "
-                f"valid: {', '.join(CONTROLLERS)}"
+                f"valid: {', '.join(controller_names())}"
             )
         exp = dataclasses.replace(exp, controllers=tuple(controllers))
     if noises is not None:

@@ -25,37 +25,51 @@ from .two_valley import Blocked, Crossing  # noqa: E402
 SUITE = containers.TaggedTasks()
 
 
-@SUITE.add("static", "benchmark")
-def forest(task_kwargs=None, environment_kwargs=None):
-    """Static random forest, 75 x 50 m, clusters of overlapping cylinders (n_clusters=45)."""
-    return _build(Forest, task_kwargs, environment_kwargs)
+def _register(name, cls, description, *tags):
+    def factory(task_kwargs=None, environment_kwargs=None):
+        return _build(cls, task_kwargs, environment_kwargs)
+
+    factory.__name__ = factory.__qualname__ = name
+    factory.__doc__ = description
+    SUITE.add(*tags)(factory)
 
 
-@SUITE.add("dynamic", "benchmark")
-def crowd(task_kwargs=None, environment_kwargs=None):
-    """100 moving Dubins cylinders reflecting off the walls (n_obstacles, speed/turn ranges)."""
-    return _build(Crowd, task_kwargs, environment_kwargs)
+_register(
+    "forest",
+    Forest,
+    "Static random forest, 75 x 50 m, clusters of overlapping cylinders (n_clusters=45).",
+    "static",
+    "benchmark",
+)
+_register(
+    "crowd",
+    Crowd,
+    "100 moving Dubins cylinders reflecting off the walls (n_obstacles, speed/turn ranges).",
+    "dynamic",
+    "benchmark",
+)
+_register(
+    "blocked",
+    Blocked,
+    "One static cylinder on the start-goal line (distance=20, obstacle_radius=2).",
+    "static",
+    "two_valley",
+)
+_register(
+    "crossing",
+    Crossing,
+    "One moving cylinder that meets the robot's straight path (approach_angle=pi: head-on).",
+    "dynamic",
+    "two_valley",
+)
+_register(
+    "layout",
+    Layout,
+    "Cylinders, start and goal from a CSV/JSON file or a BARN world (path=, world=).",
+    "static",
+)
 
-
-@SUITE.add("static", "two_valley")
-def blocked(task_kwargs=None, environment_kwargs=None):
-    """One static cylinder on the start-goal line (distance=20, obstacle_radius=2)."""
-    return _build(Blocked, task_kwargs, environment_kwargs)
-
-
-@SUITE.add("dynamic", "two_valley")
-def crossing(task_kwargs=None, environment_kwargs=None):
-    """One moving cylinder that meets the robot's straight path (approach_angle=pi: head-on)."""
-    return _build(Crossing, task_kwargs, environment_kwargs)
-
-
-@SUITE.add("static")
-def layout(task_kwargs=None, environment_kwargs=None):
-    """Cylinders, start and goal from a CSV/JSON file or a BARN world (path=, world=)."""
-    return _build(Layout, task_kwargs, environment_kwargs)
-
-
-TASKS = {name: inspect.getdoc(factory).splitlines()[0] for name, factory in SUITE.items()}
+TASKS = {name: factory.__doc__ for name, factory in SUITE.items()}
 
 
 def load(name, task_kwargs=None, environment_kwargs=None):

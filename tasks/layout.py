@@ -14,6 +14,7 @@ or the working directory.
 
 import csv
 import dataclasses
+import functools
 import json
 import math
 import os
@@ -73,10 +74,28 @@ def read_layout(path, world=None) -> LayoutFile:
                 "a JSON layout holds one world"
             )
         return _read_json(path, text)
-    return _read_csv(path, text, world)
+    columns, data = _parse_csv(str(path), text)
+    if columns[0] != "world":
+        if world is not None:
+            raise ValueError(f"{path}: world={world} given but the file has no 'world' column")
+        return LayoutFile(data)
+    if world is None:
+        raise ValueError(
+            f"{path}: the file holds several worlds; pass world=N "
+            f"({int(data[:, 0].min())}..{int(data[:, 0].max())})"
+        )
+    chosen = data[data[:, 0] == world, 1:]
+    if not len(chosen):
+        raise ValueError(
+            f"{path}: no cylinders for world {world}; the file has worlds "
+            f"{int(data[:, 0].min())}..{int(data[:, 0].max())}"
+        )
+    return LayoutFile(chosen)
 
 
-def _read_csv(path, text, world):
+@functools.lru_cache(maxsize=4)
+def _parse_csv(path, text):
+    """Column names and rows (read-only array) of a CSV layout; cached (BARN is 79k lines)."""
     columns, rows = None, []
     for lineno, row in enumerate(csv.reader(text.splitlines()), start=1):
         cells = [c.strip() for c in row]
@@ -108,22 +127,8 @@ def _read_csv(path, text, world):
     if not rows:
         raise ValueError(f"{path}: no cylinders in the file")
     data = np.array(rows)
-    if columns[0] != "world":
-        if world is not None:
-            raise ValueError(f"{path}: world={world} given but the file has no 'world' column")
-        return LayoutFile(data)
-    if world is None:
-        raise ValueError(
-            f"{path}: the file holds several worlds; pass world=N "
-            f"({int(data[:, 0].min())}..{int(data[:, 0].max())})"
-        )
-    chosen = data[data[:, 0] == world, 1:]
-    if not len(chosen):
-        raise ValueError(
-            f"{path}: no cylinders for world {world}; the file has worlds "
-            f"{int(data[:, 0].min())}..{int(data[:, 0].max())}"
-        )
-    return LayoutFile(chosen)
+    data.flags.writeable = False
+    return columns, data
 
 
 def _read_json(path, text):

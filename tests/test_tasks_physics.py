@@ -1,0 +1,228 @@
+"""The MuJoCo plant: collisions, clearance, robot dynamics, moving obstacles, world generators."""
+
+import numpy as np
+import pytest
+from dcmppi.tasks import worlds
+
+from dcmppi import defaults, tasks
+
+
+def drive(env, omega=0.0, steps=10_000):
+    """Resets, applies a constant turn rate until the episode ends; returns the steps taken."""
+    ts = env.reset()
+    for i in range(steps):
+        ts = env.step([omega])
+        if ts.last():
+            return i + 1
+    return steps
+
+
+@pytest.mark.parametrize("robot_radius", [0.5, 0.3])
+def test_collision_at_the_analytic_distance(robot_radius):
+    env = tasks.load("blocked", {"robot_radius": robot_radius, "obstacle_radius": 1.5})
+    drive(env)
+    assert env.task.outcome == "collision"
+    ts_discount = env.task.get_termination(env.physics)
+    assert ts_discount == 0.0
+    contact = env.physics.first_contact
+    obstacle = env.task.world.static[0]
+    centre_distance = np.hypot(*(contact["robot_xy"] - obstacle[:2]))
+    touching = robot_radius + obstacle[2]
+    # Contacts are checked every 10 ms substep: the first one is at most v * 10 ms deep.
+    assert touching - defaults.V * defaults.PHYSICS_TIMESTEP - 1e-6 <= centre_distance < touching
+    assert contact["geom"] == "static_0"
+    assert env.task.min_clearance < 0
+
+
+def test_crossing_obstacle_meets_the_straight_driving_robot():
+    env = tasks.load("crossing", {"distance": 20.0, "obstacle_speed": 1.0})
+    drive(env)
+    assert env.task.outcome == "collision"
+    assert env.physics.first_contact["geom"] == "moving_0"
+    # Head-on at closing speed 2 m/s: contact when the centres are 1.5 m apart, 0.75 s early.
+    t_meet = 10.0
+    assert env.physics.first_contact["time"] == pytest.approx(t_meet - 0.75, abs=0.02)
+
+
+def test_crossing_from_the_side_also_meets():
+    env = tasks.load("crossing", {"approach_angle": np.pi / 2, "obstacle_turn_rate": 0.2})
+    drive(env)
+    assert env.task.outcome == "collision"
+    assert env.physics.first_contact["time"] == pytest.approx(10.0, abs=1.2)
+
+
+def test_free_space_never_collides_and_clearance_is_analytic():
+    env = tasks.load("blocked", {"time_limit": 40.0})
+    ts = env.reset()
+    obstacle = ts.observation["static_obstacles"][0]
+    lowest = np.inf
+    while not ts.last():
+        ts = env.step([1.0])  # circle of radius 1 m around a point 1 m left of the start
+        x, y, _ = ts.observation["robot_pose"]
+        expected = np.hypot(x - obstacle[0], y - obstacle[1]) - obstacle[2] - 0.5
+        np.testing.assert_allclose(ts.observation["clearance"], [expected], atol=1e-9)
+        lowest = min(lowest, expected)
+    assert env.task.outcome == "time_limit"
+    assert not env.physics.collided
+    assert env.physics.first_contact is None
+    assert 0 < env.task.min_clearance <= lowest + 1e-9
+
+
+def test_forest_episodes_start_collision_free():
+    env = tasks.load("forest", {"random": 3})
+    for _ in range(5):
+        obs = env.reset().observation
+        assert obs["clearance"][0] >= worlds.START_GOAL_CLEARANCE
+        ts = env.step([0.0])
+        assert not env.physics.collided or ts.last()
+
+
+def test_robot_tracks_turn_rate_with_lag_and_holds_speed():
+    env = tasks.load("blocked", {"time_limit": 20.0})
+    env.reset()
+    env.step([0.8])
+    rate_after_one_step = env.physics.robot_velocity()[2]
+    assert 0.6 < rate_after_one_step < 0.8  # first-order lag, 50 ms time constant
+    for _ in range(20):
+        env.step([0.8])
+    vx, vy, rate = env.physics.robot_velocity()
+    yaw = env.physics.robot_pose()[2]
+    assert rate == pytest.approx(0.8, abs=1e-3)
+    assert np.hypot(vx, vy) == pytest.approx(defaults.V, abs=0.02)
+    lateral = -np.sin(yaw) * vx + np.cos(yaw) * vy
+    assert abs(lateral) < 0.05
+
+
+def test_full_turn_traces_a_circle_of_radius_r_min():
+    env = tasks.load("blocked", {"time_limit": 20.0})
+    env.reset()
+    xy = []
+    for _ in range(80):
+        ts = env.step([defaults.omega_max()])
+        xy.append(ts.observation["robot_pose"][:2])
+    x, y = np.array(xy[15:]).T  # after the actuator transient, more than one revolution
+    a, b, c = np.linalg.lstsq(np.column_stack([x, y, np.ones_like(x)]), x**2 + y**2, rcond=None)[0]
+    radius = np.sqrt(c + a**2 / 4 + b**2 / 4)
+    assert radius == pytest.approx(defaults.R_MIN, abs=0.01)
+    np.testing.assert_allclose(np.hypot(x - a / 2, y - b / 2), radius, atol=0.01)
+
+
+def test_process_disturbance_offsets_the_velocity():
+    env = tasks.load("blocked", {"time_limit": 20.0})
+    env.reset()
+    env.physics.set_disturbance(np.array([0.0, 0.3, 0.0]))
+    for _ in range(3):
+        env.physics.set_command(defaults.V, 0.0)
+        env.physics.step(10)
+    vx, vy, _ = env.physics.robot_velocity()
+    assert vx == pytest.approx(defaults.V, abs=1e-2)  # start faces +x
+    assert vy == pytest.approx(0.3, abs=1e-2)
+
+
+def test_moving_obstacles_follow_dubins_arcs_and_stay_in_the_map():
+    env = tasks.load("crowd", {"random": 5, "n_obstacles": 40})
+    ts = env.reset()
+    world = env.task.world
+    xmin, ymin, xmax, ymax = world.map_bounds
+    inside_all_along = np.ones(40, bool)
+    for step in range(1, 81):
+        ts = env.step([1.0])
+        moving = ts.observation["moving_obstacles"]
+        assert (moving[:, 0] >= xmin).all() and (moving[:, 0] <= xmax).all()
+        assert (moving[:, 1] >= ymin).all() and (moving[:, 1] <= ymax).all()
+        t = step * defaults.DT
+        arc = worlds.dubins_pose(world.moving[:, :3], world.moving_speed, world.moving_turn_rate, t)
+        inside = (arc[:, 0] > xmin) & (arc[:, 0] < xmax) & (arc[:, 1] > ymin) & (arc[:, 1] < ymax)
+        inside_all_along &= inside
+        ok = inside_all_along
+        np.testing.assert_allclose(moving[ok, :2], arc[ok, :2], atol=1e-9)
+        np.testing.assert_allclose(
+            np.cos(moving[ok, 2] - arc[ok, 2]), 1.0, atol=1e-9
+        )  # same heading
+        if ts.last():
+            break
+    assert inside_all_along.sum() > 20
+    assert (~inside_all_along).any(), "no obstacle reached the wall; pick another seed"
+
+
+def test_obstacles_move_every_substep():
+    env = tasks.load("crossing", {"time_limit": 5.0})
+    env.reset()
+    mocap_x = []
+    physics = env.physics
+    for _ in range(10):
+        physics.step(1)
+        mocap_x.append(physics.data.mocap_pos[0, 0])
+    steps = np.diff(mocap_x)
+    np.testing.assert_allclose(steps, -1.0 * defaults.PHYSICS_TIMESTEP, atol=1e-9)
+
+
+def test_dubins_obstacle_reflects_off_a_wall():
+    bounds = np.array([0.0, 0.0, 10.0, 10.0])
+    pose = np.array([[0.05, 5.0, np.pi], [5.0, 9.97, np.pi / 2]])
+    obstacles = worlds.DubinsObstacles(pose, [1.0, 1.0], [0.0, 0.0], bounds, 0.01)
+    z = obstacles.advance(10)
+    np.testing.assert_allclose(z[-1].real[0], 0.05, atol=1e-9)  # 0.05 m out, 0.05 m back
+    np.testing.assert_allclose(obstacles.theta[0], 0.0, atol=1e-9)  # now heading +x
+    np.testing.assert_allclose(z[-1].imag[1], 9.93, atol=1e-9)
+    np.testing.assert_allclose(obstacles.theta[1], -np.pi / 2, atol=1e-9)
+    # Speed is kept: every substep moves 1 cm.
+    path = np.abs(np.diff(np.concatenate([[pose[0, 0] + 1j * pose[0, 1]], z[:, 0]])))
+    np.testing.assert_allclose(path, 0.01, atol=1e-9)
+
+
+def test_forest_generator_makes_overlapping_clusters_and_far_apart_start_goal():
+    random = np.random.RandomState(0)
+    world = worlds.generate_forest(random, n_clusters=30)
+    static = world.static
+    assert static.shape == (30 * worlds.FOREST_CYLINDERS_PER_CLUSTER, 3)
+    solid = static[static[:, 2] > 0]
+    assert 30 <= len(solid) < len(static)
+    assert (static[len(solid) :] == 0).all()  # padding at the end
+    lo, hi = worlds.FOREST_RADIUS_RANGE
+    assert (solid[:, 2] >= lo).all() and (solid[:, 2] <= hi).all()
+    assert len(np.unique(solid[:, 2])) == len(solid)  # different radii
+    distance = np.hypot(*(world.goal - world.start[:2]))
+    assert distance >= defaults.MIN_START_GOAL_DISTANCE
+    for point in (world.start[:2], world.goal):
+        margin = worlds.clearance(point, solid, defaults.ROBOT_RADIUS).min()
+        assert margin >= worlds.START_GOAL_CLEARANCE
+    # Every cylinder after the first of its cluster overlaps another cylinder.
+    gaps = worlds.clearance(solid[:, :2], solid, 0.0) - solid[:, 2:3]
+    np.fill_diagonal(gaps, np.inf)
+    assert (gaps.min(axis=1) < 0).mean() > 0.5
+    # Start faces the goal.
+    heading = np.arctan2(*(world.goal - world.start[:2])[::-1])
+    assert world.start[2] == pytest.approx(heading)
+
+
+def test_forest_density_is_n_clusters():
+    few = worlds.forest_obstacles(np.random.RandomState(0), n_clusters=10)
+    many = worlds.forest_obstacles(np.random.RandomState(0), n_clusters=60)
+    assert (few[:, 2] > 0).sum() < (many[:, 2] > 0).sum()
+
+
+def test_crowd_generator_follows_the_spec():
+    world = worlds.generate_crowd(np.random.RandomState(1))
+    moving = world.moving
+    assert moving.shape == (100, 4)
+    xmin, ymin, xmax, ymax = world.map_bounds
+    assert ((moving[:, 0] >= xmin) & (moving[:, 0] <= xmax)).all()
+    assert ((moving[:, 1] >= ymin) & (moving[:, 1] <= ymax)).all()
+    surface = np.hypot(*(moving[:, :2] - world.start[:2]).T) - moving[:, 3]
+    assert surface.min() >= worlds.CROWD_START_CLEARANCE
+    lo, hi = defaults.OBSTACLE_SPEED_RANGE
+    assert (world.moving_speed >= lo).all() and (world.moving_speed <= hi).all()
+    lo, hi = defaults.OBSTACLE_TURN_RATE_RANGE
+    assert (world.moving_turn_rate >= lo).all() and (world.moving_turn_rate <= hi).all()
+    assert np.hypot(*(world.goal - world.start[:2])) >= defaults.MIN_START_GOAL_DISTANCE
+
+
+def test_blocked_obstacle_sits_on_the_start_goal_line():
+    env = tasks.load("blocked", {"lateral_jitter": 0.0})
+    obs = env.reset().observation
+    start, goal, obstacle = obs["robot_pose"], obs["goal"], obs["static_obstacles"][0]
+    np.testing.assert_allclose(obstacle[:2], 0.5 * (start[:2] + goal))
+    jittered = tasks.load("blocked", {"lateral_jitter": 1.0, "random": 4})
+    shifted = jittered.reset().observation["static_obstacles"][0]
+    assert 0 < abs(shifted[1] - obstacle[1]) <= 1.0

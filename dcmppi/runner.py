@@ -37,14 +37,6 @@ class EpisodeSpec:
         return int(np.random.SeedSequence([self.seed, 1]).generate_state(1)[0])
 
 
-@dataclasses.dataclass
-class StepTimes:
-    """Wall-clock seconds spent per control step in the controller and in env.step."""
-
-    controller: list[float] = dataclasses.field(default_factory=list)
-    env: list[float] = dataclasses.field(default_factory=list)
-
-
 def make_env(spec: EpisodeSpec):
     """The dm_control environment of `spec` (imports MuJoCo)."""
     from dcmppi import tasks
@@ -74,16 +66,70 @@ def act(controller, observation) -> np.ndarray:
     return np.array([omega], dtype=np.float64)
 
 
+class Episode:
+    """A running episode of `spec`, advanced one control step at a time.
+
+    Attributes: spec, env, controller, time_step (the latest dm_env TimeStep), path (list of
+    (2,) robot positions, one per step and the start), ctrl_s and env_s (seconds per step
+    in the controller and in env.step).
+    """
+
+    def __init__(self, spec: EpisodeSpec):
+        self.start = time.perf_counter()
+        self.spec = spec
+        self.env = make_env(spec)
+        self.controller = make_controller(spec)
+        self.controller.reset()
+        self.time_step = self.env.reset()
+        self.path = [self.time_step.observation["robot_pose"][:2].copy()]
+        self.ctrl_s: list[float] = []
+        self.env_s: list[float] = []
+
+    @property
+    def done(self) -> bool:
+        return self.time_step.last()
+
+    def step(self) -> None:
+        """One control step: the controller acts on the observation, the task steps."""
+        t0 = time.perf_counter()
+        action = act(self.controller, self.time_step.observation)
+        t1 = time.perf_counter()
+        self.time_step = self.env.step(action)
+        t2 = time.perf_counter()
+        self.ctrl_s.append(t1 - t0)
+        self.env_s.append(t2 - t1)
+        self.path.append(self.time_step.observation["robot_pose"][:2].copy())
+
+    def result(self) -> dict:
+        """The metrics of the finished episode (see `run_episode`)."""
+        path = np.asarray(self.path)
+        outcome = self.env.task.outcome
+        ctrl_ms = 1e3 * np.asarray(self.ctrl_s)
+        return {
+            "outcome": outcome,
+            "collision": outcome == "collision",
+            "failure": outcome != "goal",
+            "steps": len(self.ctrl_s),
+            "time_to_goal": float(self.env.physics.data.time) if outcome == "goal" else None,
+            "path_length": float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1))),
+            "min_clearance": float(self.env.task.min_clearance),
+            "ctrl_ms_mean": float(ctrl_ms.mean()) if ctrl_ms.size else 0.0,
+            "ctrl_ms_p95": float(np.percentile(ctrl_ms, 95)) if ctrl_ms.size else 0.0,
+            "env_ms_mean": float(1e3 * np.mean(self.env_s)) if self.env_s else 0.0,
+            "wall_s": time.perf_counter() - self.start,
+        }
+
+
 def run_episode(
     spec: EpisodeSpec,
-    on_step: Callable | None = None,
+    on_step: Callable[[Episode], None] | None = None,
     keep_path: bool = False,
 ) -> dict:
     """Run `spec` to termination and return its metrics.
 
     Args:
       spec: the episode.
-      on_step: optional callback `on_step(env, controller, time_step)` after every step
+      on_step: optional callback `on_step(episode)` after the reset and after every step
         (videos use it); it must not change the episode.
       keep_path: also return the robot's positions, array (steps + 1, 2), under "path".
 
@@ -92,42 +138,14 @@ def run_episode(
       time_to_goal [s] (None unless reached), path_length [m], min_clearance [m],
       ctrl_ms_mean, ctrl_ms_p95, env_ms_mean, wall_s.
     """
-    start = time.perf_counter()
-    env = make_env(spec)
-    controller = make_controller(spec)
-    controller.reset()
-    time_step = env.reset()
-    times = StepTimes()
-    positions = [time_step.observation["robot_pose"][:2].copy()]
+    episode = Episode(spec)
     if on_step is not None:
-        on_step(env, controller, time_step)
-    while not time_step.last():
-        t0 = time.perf_counter()
-        action = act(controller, time_step.observation)
-        t1 = time.perf_counter()
-        time_step = env.step(action)
-        t2 = time.perf_counter()
-        times.controller.append(t1 - t0)
-        times.env.append(t2 - t1)
-        positions.append(time_step.observation["robot_pose"][:2].copy())
+        on_step(episode)
+    while not episode.done:
+        episode.step()
         if on_step is not None:
-            on_step(env, controller, time_step)
-    path = np.asarray(positions)
-    outcome = env.task.outcome
-    ctrl_ms = 1e3 * np.asarray(times.controller)
-    result = {
-        "outcome": outcome,
-        "collision": outcome == "collision",
-        "failure": outcome != "goal",
-        "steps": len(times.controller),
-        "time_to_goal": env.physics.data.time if outcome == "goal" else None,
-        "path_length": float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1))),
-        "min_clearance": float(env.task.min_clearance),
-        "ctrl_ms_mean": float(ctrl_ms.mean()) if ctrl_ms.size else 0.0,
-        "ctrl_ms_p95": float(np.percentile(ctrl_ms, 95)) if ctrl_ms.size else 0.0,
-        "env_ms_mean": float(1e3 * np.mean(times.env)) if times.env else 0.0,
-        "wall_s": time.perf_counter() - start,
-    }
+            on_step(episode)
+    result = episode.result()
     if keep_path:
-        result["path"] = path
+        result["path"] = np.asarray(episode.path)
     return result

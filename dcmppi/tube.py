@@ -102,31 +102,52 @@ class TubeMPPI(MPPI):
 
     def _solve(self, state):
         z = state.copy() if self.nominal is None else self.nominal
-        x0 = np.column_stack(
-            [np.repeat(z[:, None], self.K, 1), np.repeat(state[:, None], self.K, 1)]
-        )
         u, eps = self.controls(self.U, self.sample())
-        states, J = self.evaluate(x0, np.concatenate([u, u], axis=1))
-        S = J + np.tile(self.importance(self.U, eps), 2)
-        K = self.K
-        reset = S[K:].min() < S[:K].min() + self.reset_threshold or (
-            np.hypot(*(state[:2] - z[:2])) > self.max_deviation
-        )
-        half = slice(K, None) if reset else slice(None, K)
+        states, J, S, reset = self._two_solves(z, state, u, eps)
         if reset:
             z = state.copy()
-        plan, w = mppi_update(self.U, eps, S[half], self.lambda_)
-        self.record(eps, states[:, :, half], J[half], S[half])
+        plan, w = mppi_update(self.U, eps, S, self.lambda_)
+        self.record(eps, states, J, S)
         d = self.diagnostics
         d.weights, d.ess, d.nominal_reset = w, effective_sample_size(w), bool(reset)
-        nominal = rollout_time_major(z, plan[:, None], self.v, self.dt)[:, :, 0]
-        A, B = linearize(nominal, plan, self.v, self.dt)
-        gain = tvlqr_gains(A, B, self._Q, self.r_omega, self._Q)[0]
-        error = state - z
-        error[2] = wrap_angle(error[2])
-        omega = float(np.clip(plan[0] - gain @ error, -self.omega_max, self.omega_max))
+        feedback = self._feedback(z, state, plan)
+        omega = float(np.clip(plan[0] - feedback, -self.omega_max, self.omega_max))
         d.nominal_state = z
         self.nominal = dubins_step(z, plan[0], self.v, self.dt)
         self.U = np.concatenate([plan[1:], plan[-1:]])
         d.plan = plan
         return omega
+
+    def _two_solves(self, z, state, u, eps):
+        """Rollouts from the nominal state z and the real state with the same controls u (N, K).
+
+        Returns the chosen solve's states (N + 1, 3, K), J (K,), S (K,) and the reset flag. When
+        z equals the real state (after every reset on a noise-free model) both solves are the
+        same computation, so one batch of K rollouts stands for both.
+        """
+        importance = self.importance(self.U, eps)
+        if np.array_equal(z, state):
+            states, J = self.evaluate(state, u)
+            S = J + importance
+            m = S.min()
+            return states, J, S, bool(m < m + self.reset_threshold)
+        K = self.K
+        x0 = np.column_stack([np.repeat(z[:, None], K, 1), np.repeat(state[:, None], K, 1)])
+        states, J = self.evaluate(x0, np.concatenate([u, u], axis=1))
+        S = J + np.tile(importance, 2)
+        reset = S[K:].min() < S[:K].min() + self.reset_threshold or (
+            np.hypot(*(state[:2] - z[:2])) > self.max_deviation
+        )
+        half = slice(K, None) if reset else slice(None, K)
+        return states[:, :, half], J[half], S[half], reset
+
+    def _feedback(self, z, state, plan):
+        """K_0 (x - z) of the time-varying LQR along the nominal plan (0 when x equals z)."""
+        error = state - z
+        error[2] = wrap_angle(error[2])
+        if not error.any():  # K_0 @ 0 = 0: the gains are not needed
+            return 0.0
+        nominal = rollout_time_major(z, plan[:, None], self.v, self.dt)[:, :, 0]
+        A, B = linearize(nominal, plan, self.v, self.dt)
+        gain = tvlqr_gains(A, B, self._Q, self.r_omega, self._Q)[0]
+        return gain @ error

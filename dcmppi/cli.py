@@ -46,7 +46,7 @@ def cmd_run(args) -> int:
     )
     _check_names(spec.task, spec.controller)
     if args.video:
-        from dcmppi.video import record_episode
+        from dcmppi.recording import record_episode
 
         result = record_episode(spec, args.video, camera=args.camera)
     else:
@@ -73,6 +73,34 @@ def cmd_run(args) -> int:
             f"  controller {result['ctrl_ms_mean']:.2f} ms/step (p95 {result['ctrl_ms_p95']:.2f}), "
             f"env.step {result['env_ms_mean']:.2f} ms/step"
         )
+    return 0
+
+
+def cmd_compare(args) -> int:
+    from dcmppi.recording import compare
+    from dcmppi.runner import EpisodeSpec
+
+    controllers = _csv(args.controllers)
+    specs = []
+    for controller in controllers:
+        _check_names(args.task, controller)
+        specs.append(
+            EpisodeSpec(
+                task=args.task,
+                controller=controller,
+                noise=args.noise,
+                seed=args.seed,
+                task_params=_key_values(args.task_param, "--task-param"),
+                controller_params=_key_values(args.param, "--param"),
+            )
+        )
+    results = compare(specs, args.video, camera=args.camera, height=args.height)
+    for spec, result in zip(specs, results, strict=True):
+        print(
+            f"{spec.controller:10s} {result['outcome']:10s} {result['steps']:5d} steps, "
+            f"min clearance {result['min_clearance']:.2f} m"
+        )
+    print(f"wrote {args.video}", file=sys.stderr)
     return 0
 
 
@@ -188,6 +216,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--camera", default="top", choices=("top", "chase"))
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("compare", help="one episode under several controllers, side by side")
+    p.add_argument("--task", required=True)
+    p.add_argument("--controllers", default="mppi,clustered,dc")
+    p.add_argument("--noise", default="none", choices=("none", "control", "process"))
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--param", action="append", metavar="NAME=VALUE")
+    p.add_argument("--task-param", action="append", metavar="NAME=VALUE")
+    p.add_argument("--video", required=True, metavar="PATH", help=".mp4 or .gif")
+    p.add_argument("--camera", default="top", choices=("top", "chase"))
+    p.add_argument("--height", type=int, default=480, help="tile height in pixels")
+    p.set_defaults(func=cmd_compare)
 
     p = sub.add_parser("bench", help="run an experiment into a results database (resumable)")
     p.add_argument("--experiment", default="static", help="static | dynamic")

@@ -52,42 +52,24 @@ def render_episode(
       dict with path, frames (steps + 1, the reset frame included), steps, width, height, fps,
       camera, outcome and min_clearance of the task.
     """
-    path = pathlib.Path(path)
-    suffix = path.suffix.lower()
-    if suffix not in (".mp4", ".gif"):
-        raise ValueError(f"path must end in .mp4 or .gif, got {path.name!r}")
     if camera not in CAMERAS:
         raise ValueError(f"camera must be one of {CAMERAS}, got {camera!r}")
-    if width <= 0 or height <= 0 or width % 2 or height % 2:
-        raise ValueError(f"width and height must be positive even numbers, got {width}x{height}")
     physics = env.physics
-    model = physics.model.ptr
     fps = 1.0 / env.control_timestep() if fps is None else float(fps)
-    if fps <= 0:
-        raise ValueError(f"fps must be > 0, got {fps}")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if suffix == ".gif":
-        codec = dict(codec="gif", pix_fmt_out="rgb8", quality=None)
-    else:
-        codec = dict(codec="libx264", pix_fmt_out="yuv420p", quality=7)
-    renderer = Renderer(model, width, height)
-    writer = imageio_ffmpeg.write_frames(
-        str(path), (width, height), fps=fps, macro_block_size=1, ffmpeg_log_level="error", **codec
-    )
-    writer.send(None)
     frames = steps = 0
-    try:
-        time_step = env.reset()
-        while True:
-            writer.send(renderer.render(physics, camera, decorate))
-            frames += 1
-            if time_step.last() or (max_steps is not None and steps >= max_steps):
-                break
-            time_step = env.step(policy(time_step))
-            steps += 1
-    finally:
-        writer.close()
-        renderer.close()
+    with VideoWriter(path, width, height, fps) as writer:
+        renderer = Renderer(physics.model.ptr, width, height)
+        try:
+            time_step = env.reset()
+            while True:
+                writer.write(renderer.render(physics, camera, decorate))
+                frames += 1
+                if time_step.last() or (max_steps is not None and steps >= max_steps):
+                    break
+                time_step = env.step(policy(time_step))
+                steps += 1
+        finally:
+            renderer.close()
     task = env.task
     return dict(
         path=str(path),
@@ -100,6 +82,49 @@ def render_episode(
         outcome=getattr(task, "outcome", None),
         min_clearance=getattr(task, "min_clearance", None),
     )
+
+
+class VideoWriter:
+    """Frames (height, width, 3) uint8 piped straight into ffmpeg: MP4 (H.264) or GIF.
+
+    Use as a context manager; nothing is buffered, so memory does not grow with the video.
+    """
+
+    def __init__(self, path, width, height, fps):
+        path = pathlib.Path(path)
+        suffix = path.suffix.lower()
+        if suffix not in (".mp4", ".gif"):
+            raise ValueError(f"path must end in .mp4 or .gif, got {path.name!r}")
+        if width <= 0 or height <= 0 or width % 2 or height % 2:
+            raise ValueError(
+                f"width and height must be positive even numbers, got {width}x{height}"
+            )
+        if fps <= 0:
+            raise ValueError(f"fps must be > 0, got {fps}")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if suffix == ".gif":
+            codec = dict(codec="gif", pix_fmt_out="rgb8", quality=None)
+        else:
+            codec = dict(codec="libx264", pix_fmt_out="yuv420p", quality=7)
+        self.path, self.frames = path, 0
+        self._writer = imageio_ffmpeg.write_frames(
+            str(path), (width, height), fps=fps, macro_block_size=1, ffmpeg_log_level="error",
+            **codec,
+        )  # fmt: skip
+        self._writer.send(None)
+
+    def write(self, frame: np.ndarray) -> None:
+        self._writer.send(frame)
+        self.frames += 1
+
+    def close(self) -> None:
+        self._writer.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
 
 
 class Renderer:
@@ -121,8 +146,12 @@ class Renderer:
         self._rect = mujoco.MjrRect(0, 0, width, height)
         self._pixels = np.empty((height, width, 3), dtype=np.uint8)
 
-    def render(self, physics, camera="top", decorate=None) -> np.ndarray:
-        """The current frame (height, width, 3) uint8 from the named camera."""
+    def render(self, physics, camera="top", decorate=None, text=None) -> np.ndarray:
+        """The current frame (height, width, 3) uint8 from the named camera.
+
+        text: optional (left column, right column) strings drawn at the top left, with
+        lines separated by newlines.
+        """
         self._context.make_current()
         self._camera.fixedcamid = self._model.camera(camera).id
         mujoco.mjv_updateScene(
@@ -137,6 +166,11 @@ class Renderer:
         if decorate is not None:
             decorate(self.scene, physics)
         mujoco.mjr_render(self._rect, self.scene, self._mjr)
+        if text is not None:
+            mujoco.mjr_overlay(
+                mujoco.mjtFont.mjFONT_NORMAL, mujoco.mjtGridPos.mjGRID_TOPLEFT, self._rect,
+                text[0], text[1], self._mjr,
+            )  # fmt: skip
         mujoco.mjr_readPixels(self._pixels, None, self._rect, self._mjr)
         return np.ascontiguousarray(self._pixels[::-1])
 

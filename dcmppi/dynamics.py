@@ -16,6 +16,7 @@ and are accurate to about 1e-6 m over a 5 s horizon, far below the 0.1 m cost-ma
 import numpy as np
 
 _SINC_SERIES_MAX = 0.1  # |a| below which sinc(a) uses its series (error < 1e-13)
+_CUMSUM_MAX_COLUMNS = 96  # running sums over rows of at most this many elements use cumsum
 
 
 def wrap_angle(theta):
@@ -74,17 +75,28 @@ def rollout_time_major(x0, omega, v, dt):
     a = omega * (0.5 * dt)
     dtheta = a + a
     theta = out[:, 2]
-    for i in range(n):
-        np.add(theta[i], dtheta[i], out=theta[i + 1])
+    _accumulate(theta, dtheta)
     mid = (theta[:-1] + a).astype(np.float32)  # headings at mid-period, |mid| < pi + N dt omega_max
     step = (v * dt) * sinc(a)
     dxy = np.empty((n, 2, k))
     np.multiply(step, np.cos(mid), out=dxy[:, 0])
     np.multiply(step, np.sin(mid), out=dxy[:, 1])
-    xy = out[:, :2]
-    for i in range(n):
-        np.add(xy[i], dxy[i], out=xy[i + 1])
+    _accumulate(out[:, :2], dxy)
     return out
+
+
+def _accumulate(out, steps):
+    """out[i + 1] = out[i] + steps[i] in order (a running sum). out: (n + 1, ...), steps: (n, ...).
+
+    Few columns: one cumsum call (the same additions in the same order). Many columns: a loop of
+    row additions, several times faster than cumsum over the leading axis.
+    """
+    if steps[0].size <= _CUMSUM_MAX_COLUMNS:
+        out[1:] = steps
+        np.cumsum(out, axis=0, out=out)
+        return
+    for i in range(len(steps)):
+        np.add(out[i], steps[i], out=out[i + 1])
 
 
 def rollout(state, U, v, dt):

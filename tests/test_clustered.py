@@ -24,6 +24,21 @@ def test_dbscan_labels_identical_to_sklearn(seed):
         np.testing.assert_array_equal(dbscan(X, eps, ms), expected)
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_dbscan_levels_identical_to_sklearn(seed):
+    """Clustered MPPI's features: most points share the clipped cost exactly (1-D levels)."""
+    rng = np.random.default_rng(seed)
+    for _ in range(60):
+        n = int(rng.integers(1, 400))
+        X = rng.standard_normal((n, 2))
+        X[:, 1] = np.minimum(np.abs(X[:, 1]) * rng.uniform(1, 8), rng.uniform(0.2, 3.0))
+        if rng.random() < 0.3:
+            X = np.round(X, 1)  # several levels, duplicates, ties at eps
+        eps, ms = rng.uniform(0.05, 1.0), int(rng.integers(1, 10))
+        expected = DBSCAN(eps=eps, min_samples=ms).fit(X).labels_
+        np.testing.assert_array_equal(dbscan(X, eps, ms), expected)
+
+
 def two_valley(eps):
     """Paper Fig. 2: good modes at +-0.5, a ridge of high cost at the mean 0."""
     return 1.0 * np.minimum((eps - 0.5) ** 2, (eps + 0.5) ** 2) * 20 + 50.0 * (np.abs(eps) < 0.25)

@@ -104,6 +104,28 @@ def cmd_compare(args) -> int:
     return 0
 
 
+def cmd_figure(args) -> int:
+    from dcmppi.figures import write_figures
+    from dcmppi.runner import EpisodeSpec
+
+    controllers = _csv(args.controllers)
+    for controller in controllers:
+        _check_names(args.task, controller)
+    spec = EpisodeSpec(
+        task=args.task,
+        controller=controllers[0],
+        noise="none",
+        seed=args.seed,
+        task_params=_key_values(args.task_param, "--task-param"),
+        controller_params=_key_values(args.param, "--param"),
+    )
+    result = write_figures(spec, args.out, controllers)
+    for name, action in result["actions"].items():
+        print(f"{name:10s} applies omega = {action:+.4f} rad/s")
+    print("wrote " + ", ".join(result["files"]), file=sys.stderr)
+    return 0
+
+
 def cmd_bench(args) -> int:
     import dataclasses
     from pathlib import Path
@@ -228,6 +250,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--camera", default="top", choices=("top", "chase"))
     p.add_argument("--height", type=int, default=480, help="tile height in pixels")
     p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("figure", help="value and rollout figures of one step (paper Fig. 2, 4)")
+    p.add_argument("--task", default="crossing")
+    p.add_argument("--controllers", default="mppi,clustered,dc")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--param", action="append", metavar="NAME=VALUE")
+    p.add_argument("--task-param", action="append", metavar="NAME=VALUE")
+    p.add_argument("--out", default="figures")
+    p.set_defaults(func=cmd_figure)
 
     p = sub.add_parser("bench", help="run an experiment into a results database (resumable)")
     p.add_argument("--experiment", default="static", help="static | dynamic")

@@ -7,32 +7,32 @@ Names follow the paper: K samples, N horizon steps, lambda_, Sigma, alpha, beta,
 import math
 
 # Robot and world (shared by the plant in tasks/ and the analytic model in dcmppi/).
-V = 1.0                    # constant forward speed v [m/s] (paper Fig. 4)
-R_MIN = 1.0                # minimum turning radius [m]; |omega| <= V / R_MIN
-ROBOT_RADIUS = 0.5         # robot collision radius [m]
-DT = 0.1                   # control period [s]
-PHYSICS_TIMESTEP = 0.01    # MuJoCo timestep [s] -> 10 substeps per control step
-GOAL_TOLERANCE = 1.0       # goal reached within this distance [m]
-TIME_LIMIT_FACTOR = 3.0    # time limit = 3 x map perimeter / v (paper)
+V = 1.0  # constant forward speed v [m/s] (paper Fig. 4)
+R_MIN = 1.0  # minimum turning radius [m]; |omega| <= V / R_MIN
+ROBOT_RADIUS = 0.5  # robot collision radius [m]
+DT = 0.1  # control period [s]
+PHYSICS_TIMESTEP = 0.01  # MuJoCo timestep [s] -> 10 substeps per control step
+GOAL_TOLERANCE = 1.0  # goal reached within this distance [m]
+TIME_LIMIT_FACTOR = 3.0  # time limit = 3 x map perimeter / v (paper)
 
 # Maps (SPEC section 4).
-MAP_SIZE = (75.0, 50.0)    # [m], x in [0, 75], y in [0, 50]
+MAP_SIZE = (75.0, 50.0)  # [m], x in [0, 75], y in [0, 50]
 MIN_START_GOAL_DISTANCE = 30.0
 
 # Controllers.
-K = 500                    # samples (paper)
-N = 50                     # horizon steps, 5 s (chosen)
-LAMBDA = 1.0               # lambda, cost sensitivity (paper)
-SIGMA = 0.1                # Sigma, variance of the omega perturbation (paper)
-ALPHA = 1000.0             # alpha, static collision weight (paper)
-BETA = 10.0                # beta, dynamic collision weight (paper)
-P = 25                     # sampled futures per moving obstacle (paper)
+K = 500  # samples (paper)
+N = 50  # horizon steps, 5 s (chosen)
+LAMBDA = 1.0  # lambda, cost sensitivity (paper)
+SIGMA = 0.1  # Sigma, variance of the omega perturbation (paper)
+ALPHA = 1000.0  # alpha, static collision weight (paper)
+BETA = 10.0  # beta, dynamic collision weight (paper)
+P = 25  # sampled futures per moving obstacle (paper)
 
 # Moving obstacles of the crowd (SPEC section 4): uniform ranges, and the Gaussian
 # with the same mean and standard deviation that the controllers are told.
-OBSTACLE_SPEED_RANGE = (0.5, 1.5)       # [m/s]
+OBSTACLE_SPEED_RANGE = (0.5, 1.5)  # [m/s]
 OBSTACLE_TURN_RATE_RANGE = (-0.5, 0.5)  # [rad/s]
-MOVING_OBSTACLE_RADIUS = 1.0            # [m]
+MOVING_OBSTACLE_RADIUS = 1.0  # [m]
 
 
 def uniform_mean_std(lo: float, hi: float) -> tuple[float, float]:

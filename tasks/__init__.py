@@ -37,7 +37,7 @@ def _register(name, cls, description, *tags):
 _register(
     "forest",
     Forest,
-    "Static random forest, 75 x 50 m, clusters of overlapping cylinders (n_clusters=45).",
+    "Static random forest, 75 x 50 m, clusters of overlapping cylinders (n_clusters=65).",
     "static",
     "benchmark",
 )

@@ -22,8 +22,21 @@ from dcmppi.results import ResultsDB
 from dcmppi.runner import EpisodeSpec, run_episode
 
 SMALL = {"K": 32, "N": 20}
-DETERMINISTIC = ("noise", "controller", "env_index", "seed", "status", "outcome", "collision",
-                 "failure", "steps", "time_to_goal", "path_length", "min_clearance", "params")  # fmt: skip
+DETERMINISTIC = (
+    "noise",
+    "controller",
+    "env_index",
+    "seed",
+    "status",
+    "outcome",
+    "collision",
+    "failure",
+    "steps",
+    "time_to_goal",
+    "path_length",
+    "min_clearance",
+    "params",
+)
 
 
 def tiny(episodes=2, controllers=("mppi", "clustered"), noises=("none", "control")):
@@ -77,7 +90,7 @@ def test_ray_executor_matches_local(tmp_path):
 
 def test_erroring_episode_is_recorded_and_the_run_goes_on(tmp_path):
     exp = tiny(episodes=1, controllers=("mppi",), noises=("none",))
-    (key, good), = exp.specs()  # fmt: skip
+    ((key, good),) = exp.specs()
     bad = dataclasses.replace(good, controller_params={**SMALL, "lambda_": -1.0})
     db = ResultsDB(tmp_path / "e.db", exp.config())
     run_all([(("none", "mppi", 5), bad), (key, good)], db, progress=False)
@@ -87,9 +100,27 @@ def test_erroring_episode_is_recorded_and_the_run_goes_on(tmp_path):
 
 
 def _bench_cmd(db, episodes):
-    return [sys.executable, "-m", "dcmppi.cli", "bench", "--experiment", "static", "--episodes",
-            str(episodes), "--controllers", "mppi", "--noise", "none", "--param", "K=32",
-            "--param", "N=20", "--db", str(db), "--no-progress"]  # fmt: skip
+    return [
+        sys.executable,
+        "-m",
+        "dcmppi.cli",
+        "bench",
+        "--experiment",
+        "static",
+        "--episodes",
+        str(episodes),
+        "--controllers",
+        "mppi",
+        "--noise",
+        "none",
+        "--param",
+        "K=32",
+        "--param",
+        "N=20",
+        "--db",
+        str(db),
+        "--no-progress",
+    ]
 
 
 def _count(db):

@@ -1,0 +1,170 @@
+"""The paper's Fig. 2 and Fig. 4 for one control step of a task.
+
+Every controller plans the first step of the same episode (same observation, same seed,
+hence the same K perturbations); the figures show
+
+- `values.png`: the value exp(-(J - min J) / lambda) of each sampled perturbation against
+  the perturbation, coloured by DBSCAN cluster (grey: noise, or no clustering), with the
+  control each algorithm applies marked by a star (paper Fig. 2 and Fig. 4, bottom row);
+- `rollouts.png`: the sampled agent rollouts coloured by cluster, the sampled futures of the
+  moving obstacles, and each algorithm's plan (paper Fig. 4, top row).
+
+The value is shifted by min J so that it does not underflow (J is in the hundreds); the
+shape, which is what the figure is about, is unchanged.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from dcmppi.dynamics import rollout
+from dcmppi.overlay import cluster_rgb
+from dcmppi.plots import COLORS, _pyplot, draw_world
+from dcmppi.runner import EpisodeSpec, act, make_controller, make_env
+from dcmppi.tasks.worlds import dubins_pose
+
+FIGURE_CONTROLLERS = ("mppi", "clustered", "dc")
+
+
+def straight_blocked(observation, horizon: float, robot_radius: float) -> bool:
+    """Whether driving straight for `horizon` seconds meets an obstacle.
+
+    Static cylinders stay put; moving ones are predicted at the mean of the known Gaussian.
+    """
+    x, y, theta = observation["robot_pose"]
+    v_mean, _, omega_mean, _ = observation["obstacle_model"]
+    t = np.linspace(0.0, horizon, 51)
+    robot = np.stack([x + t * np.cos(theta), y + t * np.sin(theta)], axis=-1)  # (T, 2)
+    static = observation["static_obstacles"]
+    static = static[static[:, 2] > 0]
+    d = np.linalg.norm(robot[:, None] - static[None, :, :2], axis=-1) - static[:, 2]
+    if (d <= robot_radius).any():
+        return True
+    for ox, oy, heading, r in observation["moving_obstacles"]:
+        pose = dubins_pose((ox, oy, heading), v_mean, omega_mean, t)
+        if (np.hypot(*(robot - pose[:, :2]).T) <= r + robot_radius).any():
+            return True
+    return False
+
+
+def first_step(spec: EpisodeSpec, controllers=FIGURE_CONTROLLERS, approach: int | None = None):
+    """Each controller's first step on `spec`'s episode, once an obstacle matters.
+
+    The robot first drives straight (omega = 0) for `approach` control steps, by default
+    until driving straight would meet an obstacle within 60 % of the horizon: the moment
+    of the paper's Fig. 2 and 4, when the straight reference runs into the obstacle. Then
+    every controller plans from that same observation with the straight warm start and the
+    same seed.
+
+    Returns:
+      (observation, {name: (controller, action)}) where action is the applied turn rate.
+    """
+    env = make_env(spec)
+    time_step = env.reset()
+    probe = make_controller(spec)
+    horizon = probe.N * probe.dt
+    steps = 0
+    while not time_step.last() and (
+        steps < approach if approach is not None
+        else not straight_blocked(time_step.observation, 0.6 * horizon, probe.robot_radius)
+    ):  # fmt: skip
+        time_step = env.step(np.zeros(1))
+        steps += 1
+    if time_step.last():
+        raise ValueError(f"the episode ended ({env.task.outcome}) while approaching")
+    observation = time_step.observation
+    out = {}
+    for name in controllers:
+        controller = make_controller(dataclasses.replace(spec, controller=name))
+        controller.reset()
+        out[name] = (controller, float(act(controller, observation)[0]))
+    return observation, out
+
+
+def plan_cost(controller, state) -> float:
+    """J of the controller's plan rolled out without noise from `state`."""
+    plan = controller.diagnostics.plan
+    _, J = controller.evaluate(np.asarray(state, dtype=float), plan[:, None])
+    return float(J[0])
+
+
+def write_figures(
+    spec: EpisodeSpec, out_dir, controllers=FIGURE_CONTROLLERS, approach: int | None = None
+) -> dict:
+    """Write values.png and rollouts.png for the step of `first_step(spec, ..., approach)`.
+
+    Returns:
+      {"files": [paths], "actions": {controller: applied turn rate marked in the figure}}.
+    """
+    plt = _pyplot()
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    observation, runs = first_step(spec, controllers, approach)
+    state = observation["robot_pose"]
+
+    fig, axes = plt.subplots(1, len(runs), figsize=(4.2 * len(runs), 3.6), sharey=True)
+    axes = np.atleast_1d(axes)
+    for ax, (name, (ctrl, action)) in zip(axes, runs.items(), strict=True):
+        d = ctrl.diagnostics
+        J0 = d.J.min()
+        value = np.exp(-(d.J - J0) / ctrl.lambda_)
+        ax.scatter(d.eps[:, 0], value, s=9, c=cluster_rgb(d.labels, len(value)), lw=0)
+        U0 = 0.0  # the first step's warm start is straight ahead
+        star = np.exp(-(plan_cost(ctrl, state) - J0) / ctrl.lambda_)
+        ax.plot(
+            action - U0, star, "*", ms=18, color="gold", mec="k", label=f"applied {action:+.3f}"
+        )
+        clusters = 0 if d.labels is None else int(d.labels.max()) + 1
+        ax.set_title(f"{name}" + (f": {clusters} clusters" if d.labels is not None else ""))
+        ax.set_xlabel("perturbation of omega [rad/s]")
+        ax.legend(loc="upper right", fontsize=8)
+    axes[0].set_ylabel("value exp(-(J - min J) / lambda)")
+    t = observation["robot_pose"]
+    fig.suptitle(
+        f"{spec.task}, seed {spec.seed}: value of each sampled perturbation at "
+        f"x = ({t[0]:.1f}, {t[1]:.1f})"
+    )
+    fig.tight_layout()
+    values_png = out / "values.png"
+    fig.savefig(values_png, dpi=120)
+    plt.close(fig)
+
+    fig, axes = plt.subplots(1, 3, figsize=(15, 5))
+    clustered = next((runs[c][0] for c in ("dc", "clustered") if c in runs), None)
+    shown = clustered or next(iter(runs.values()))[0]
+    d = shown.diagnostics
+    rgb = cluster_rgb(d.labels, len(d.states))
+    for ax in axes:
+        draw_world(ax, observation)
+        _zoom(ax, state, observation["goal"])
+    for k in range(0, len(d.states), max(1, len(d.states) // 150)):
+        axes[0].plot(d.states[k, :, 0], d.states[k, :, 1], color=rgb[k], lw=0.6, alpha=0.6)
+    axes[0].set_title(f"sampled rollouts of {shown.name}, by cluster")
+    futures = runs["dc"][0].diagnostics.obstacle_samples if "dc" in runs else None
+    if futures is not None:
+        for track in futures.reshape(-1, futures.shape[2], 2):
+            axes[1].plot(track[:, 0], track[:, 1], color="tab:orange", lw=0.6, alpha=0.5)
+    axes[1].set_title("sampled obstacle futures (dc)")
+    for name, (ctrl, _) in runs.items():
+        path = rollout(state, ctrl.diagnostics.plan, ctrl.v, ctrl.dt)
+        axes[2].plot(path[:, 0], path[:, 1], color=COLORS.get(name), lw=2.2, label=name)
+    axes[2].legend(fontsize=8)
+    axes[2].set_title("each algorithm's plan")
+    fig.tight_layout()
+    rollouts_png = out / "rollouts.png"
+    fig.savefig(rollouts_png, dpi=120)
+    plt.close(fig)
+    return {
+        "files": [str(values_png), str(rollouts_png)],
+        "actions": {name: action for name, (_, action) in runs.items()},
+    }
+
+
+def _zoom(ax, state, goal, margin=4.0) -> None:
+    """Frame the start, the goal and the 5 s horizon around them."""
+    xs, ys = [state[0], goal[0]], [state[1], goal[1]]
+    ax.set_xlim(min(xs) - margin, max(xs) + margin)
+    ax.set_ylim(min(ys) - margin - 6, max(ys) + margin + 6)

@@ -7,14 +7,16 @@ distance <= eps (self included), tested as sum_d (x_d - y_d)^2 <= eps^2 like skl
 core points have at least `min_samples` neighbours; clusters are the connected components of
 core points, numbered by their lowest original index (the order of sklearn's scan); a border
 point joins the lowest-numbered cluster among its core neighbours (the first cluster that reaches
-it in sklearn); everything else is noise, -1.
+it in sklearn's depth-first expansion, sklearn/cluster/_dbscan_inner.pyx); everything else is
+noise, -1.
 
 Two features (Clustered MPPI with constant perturbations: eps_k / sigma and the clipped scaled
-cost), `_dbscan_2d`: most samples sit exactly at the cost clip, so the points form "levels" of
-equal second feature. A level of at least MIN_LEVEL points is a 1-D problem: neighbour ranges
-come from binary search, its core points connect in runs of consecutive core points (no pair
-lists). The remaining points and the few pairs between them and the levels are explicit pair
-lists from a band search in the second feature. Cost O(K log K + pairs outside the levels).
+cost), `_dbscan_2d`: most samples sit exactly at the cost clip, the largest second feature. When
+at least MIN_LEVEL points share the largest second feature they form the "level", a 1-D problem:
+neighbour ranges by binary search, core points connected in runs of consecutive core points (no
+pair lists). The other ("free") points, sorted by the second feature, and the few pairs between
+them and the level are explicit pair lists from a band search. Cost O(K log K + pairs off the
+level), about 40 numpy calls.
 
 Other dimensions, `_dbscan_band`: after sorting by the first feature, the neighbours of point i
 lie among the next `width` points; components by min-label propagation over that band.
@@ -24,7 +26,7 @@ tests/test_clustered.py checks the labels against sklearn on many random inputs.
 
 import numpy as np
 
-MIN_LEVEL = 8  # points with one equal second feature handled as a 1-D level
+MIN_LEVEL = 8  # points sharing the largest second feature handled as a 1-D level
 _WIDEN = 1.0 + 1e-9  # binary-search margins: a superset of candidates, then the exact test
 
 
@@ -47,144 +49,147 @@ def dbscan(X, eps, min_samples):
 
 
 def _dbscan_2d(X, eps, min_samples):
-    """dbscan for (n, 2) X, n >= 1: levels of equal X[:, 1] plus explicit pairs elsewhere."""
+    """dbscan for (n, 2) X, n >= 1: the level of the largest X[:, 1] plus explicit pairs."""
     n = len(X)
     eps2 = eps * eps
-    order = np.lexsort((X[:, 0], X[:, 1]))  # by b = X[:, 1], then a = X[:, 0]
+    order = np.lexsort((X[:, 0], X[:, 1]))  # free points by b = X[:, 1], then the level by a
     a, b = X[order, 0], X[order, 1]
-    idx = np.arange(n)
-    cut = np.flatnonzero(b[1:] != b[:-1]) + 1
-    starts, ends = np.concatenate([[0], cut]), np.concatenate([cut, [n]])
-    big = np.flatnonzero(ends - starts >= MIN_LEVEL)
-    levels = list(zip(starts[big].tolist(), ends[big].tolist(), strict=True))
-    on_level = np.zeros(n, dtype=bool)
-    for s, e in levels:
-        on_level[s:e] = True
-    # Neighbours: own-level ranges [lo, hi) (just self off the levels) and explicit pairs (u, v).
-    lo, hi = idx.copy(), idx + 1
-    pairs = [_free_pairs(a, b, np.flatnonzero(~on_level), eps, eps2)]
-    for s, e in levels:
-        lo[s:e], hi[s:e] = _level_ranges(a[s:e], eps2, s)
-        below = np.searchsorted(b, b[s] - eps * _WIDEN, "left")
-        above = np.searchsorted(b, b[s] + eps * _WIDEN, "right")
-        near = np.concatenate([np.arange(below, s), np.flatnonzero(~on_level[e:above]) + e])
-        pairs.append(_level_pairs(a, b, near, s, e, eps2))
-    u = np.concatenate([p[0] for p in pairs])
-    v = np.concatenate([p[1] for p in pairs])
-    count = hi - lo + np.bincount(u, minlength=n) + np.bincount(v, minlength=n)
-    core = count >= min_samples
+    s = n - np.count_nonzero(b == b[-1])  # the level (largest b) is [s, n)
+    if n - s < MIN_LEVEL:
+        s = n
+    # Neighbours (sorted positions): level ranges [lo, hi) (self only off the level) and the
+    # explicit pairs u < v with a free point u.
+    lo, hi = np.arange(n), np.arange(1, n + 1)
+    if s < n:
+        lo[s:], hi[s:] = _level_ranges(a[s:], eps2, s)
+    u, v = _pairs(a, b, s, eps, eps2)
+    core = hi - lo + np.bincount(u, minlength=n) + np.bincount(v, minlength=n) >= min_samples
     labels = np.full(n, -1, dtype=np.intp)
     if not core.any():
         return labels
-    # Clusters: runs of consecutive core points on each level (one node each, `rep`), joined
-    # by the explicit core-core pairs.
-    rep = idx.copy()
-    for s, e in levels:
-        c = np.flatnonzero(core[s:e]) + s
-        new_run = np.ones(len(c), dtype=bool)
-        new_run[1:] = (a[c[1:]] - a[c[:-1]]) ** 2 > eps2
-        rep[c] = c[np.maximum.accumulate(np.where(new_run, np.arange(len(c)), 0))]
+    # Clusters over original indices: level runs first, then the core-core pairs.
+    root = _level_runs(a, core, order, s, eps2)
     cc = core[u] & core[v]
-    root = _components(n, rep[u[cc]], rep[v[cc]])[rep]
-    sorted_labels = _number(root, core, order)
-    # Border points: the lowest cluster among core neighbours, from the pairs and the levels.
-    lab = np.where(core, sorted_labels, n)
-    border = np.full(n, n, dtype=np.intp)
-    np.minimum.at(border, v, lab[u])
-    np.minimum.at(border, u, lab[v])
-    prev_core = np.maximum.accumulate(np.where(core, idx, -1))
-    next_core = np.minimum.accumulate(np.where(core, idx, n)[::-1])[::-1]
-    left = prev_core >= lo  # within the own-level range (self-only off the levels)
-    right = next_core < hi
-    np.minimum(border, np.where(left, lab[np.maximum(prev_core, 0)], n), out=border)
-    np.minimum(border, np.where(right, lab[np.minimum(next_core, n - 1)], n), out=border)
-    is_border = ~core & (border < n)
-    sorted_labels[is_border] = border[is_border]
-    labels[order] = sorted_labels
+    root = _components(root, order[u[cc]], order[v[cc]])[order]
+    # Number clusters by their lowest original index, which is their root.
+    is_root = np.zeros(n + 1, dtype=bool)
+    is_root[np.where(core, root, n)] = True
+    lab = np.where(core, np.cumsum(is_root)[root] - 1, n)  # sorted positions, n: not core
+    labels[order] = _border(lab, core, u, v, lo, hi, s)
     return labels
 
 
 def _level_ranges(al, eps2, offset):
     """Neighbour ranges [lo, hi) + offset of every point of a level (sorted values al)."""
-    pad = np.sqrt(eps2) * _WIDEN + 1e-6 * np.sqrt(eps2)
+    pad = np.sqrt(eps2) * (_WIDEN + 1e-6)
     lo = np.searchsorted(al, al - pad, "left")
     hi = np.searchsorted(al, al + pad, "right")
-    last = len(al) - 1
+    m = len(al)
+    ends = np.empty(2 * m, dtype=np.intp)  # the first and last candidate of every range
     while True:  # trim candidates outside the exact test (rare: within 1e-6 eps of the edge)
-        bad_lo = (al[np.minimum(lo, last)] - al) ** 2 > eps2
-        bad_hi = (al[hi - 1] - al) ** 2 > eps2
-        if not (bad_lo.any() or bad_hi.any()):
+        np.minimum(lo, m - 1, out=ends[:m])
+        np.subtract(hi, 1, out=ends[m:])
+        d = al[ends] - np.tile(al, 2)
+        bad = d * d > eps2
+        if not bad.any():
             return lo + offset, hi + offset
-        lo += bad_lo
-        hi -= bad_hi
+        lo += bad[:m]
+        hi -= bad[m:]
 
 
-def _level_pairs(a, b, near, s, e, eps2):
-    """Neighbour pairs (near point, level point) between points `near` and the level a[s:e]."""
-    db2 = (b[s] - b[near]) ** 2
-    half = np.sqrt(np.maximum(eps2 - db2, 0.0) + 1e-12 * eps2) * _WIDEN
-    al = a[s:e]
-    lo = np.searchsorted(al, a[near] - half, "left") + s
-    hi = np.searchsorted(al, a[near] + half, "right") + s
-    row, j = _expand(lo, hi)
-    i = near[row]
-    return _exact(a, b, i, j, eps2)
+def _pairs(a, b, s, eps, eps2):
+    """Neighbour pairs (u, v), u < v, u a free point (position < s), as sklearn tests them.
+
+    Free points (sorted by b) pair with the free points after them within eps in b; those within
+    eps of the level's b pair with the level points within the remaining half-width in a.
+    """
+    bf = b[:s]
+    rows, first = np.arange(s), np.arange(1, s + 1)
+    last = np.searchsorted(bf, bf + eps * _WIDEN, "right")
+    if s < len(a):
+        top, al = b[s], a[s:]
+        k = np.searchsorted(bf, top - eps * _WIDEN, "left")
+        db = top - bf[k:]
+        half = np.sqrt(np.maximum(eps2 - db * db, 0.0) + 1e-12 * eps2) * _WIDEN
+        rows = np.concatenate([rows, rows[k:]])
+        first = np.concatenate([first, np.searchsorted(al, a[k:s] - half, "left") + s])
+        last = np.concatenate([last, np.searchsorted(al, a[k:s] + half, "right") + s])
+    # Expand the candidate ranges [first, last) of every row into pairs (u, v).
+    length = np.maximum(last - first, 0)
+    start = np.cumsum(length)
+    start -= length
+    u = np.repeat(rows, length)
+    v = np.repeat(first - start, length)
+    v += np.arange(len(v))
+    da = a[v] - a[u]
+    db = b[v] - b[u]
+    da *= da
+    db *= db
+    keep = da + db <= eps2
+    return u[keep], v[keep]
 
 
-def _free_pairs(a, b, free, eps, eps2):
-    """Neighbour pairs among the points `free` (sorted by b), from a band search in b."""
-    bf = b[free]
-    hi = np.searchsorted(bf, bf + eps * _WIDEN, "right")
-    row, col = _expand(np.arange(1, len(free) + 1), hi)
-    return _exact(a, b, free[row], free[col], eps2)
+def _level_runs(a, core, order, s, eps2):
+    """Parent pointers over original indices: level core runs point at their lowest index.
 
-
-def _exact(a, b, i, j, eps2):
-    """The pairs (i, j) within eps, tested as sklearn does."""
-    da = a[j] - a[i]
-    db = b[j] - b[i]
-    keep = da * da + db * db <= eps2
-    return i[keep], j[keep]
-
-
-def _expand(lo, hi):
-    """(row, j) for every j in [lo[row], hi[row]) (empty ranges allowed)."""
-    length = np.maximum(hi - lo, 0)
-    row = np.repeat(np.arange(len(lo)), length)
-    start = np.cumsum(length) - length
-    return row, np.arange(len(row)) - start[row] + lo[row]
-
-
-def _components(n, u, v):
-    """Connected components of nodes 0..n-1 with edges (u, v): a common root node per component."""
-    root = np.arange(n)
-    while len(u):
-        m = np.minimum(root[u], root[v])
-        new = root.copy()
-        np.minimum.at(new, u, m)
-        np.minimum.at(new, v, m)
-        while True:  # pointer jumping
-            jumped = new[new]
-            if np.array_equal(jumped, new):
-                break
-            new = jumped
-        if np.array_equal(new, root):
-            break
-        root = new
+    A run is a maximal sequence of consecutive core points of the level (sorted by a), each
+    within eps of the next. Returns root (n,) with root[i] <= i and root[root] == root.
+    """
+    root = np.arange(len(a))
+    c = np.flatnonzero(core[s:]) + s
+    if len(c) == 0:
+        return root
+    new_run = np.empty(len(c), dtype=bool)
+    new_run[0] = True
+    gap = a[c[1:]] - a[c[:-1]]
+    np.greater(gap * gap, eps2, out=new_run[1:])
+    oc = order[c]
+    root[oc] = np.minimum.reduceat(oc, np.flatnonzero(new_run))[np.cumsum(new_run) - 1]
     return root
 
 
-def _number(root, core, order):
-    """Sorted-order labels: clusters numbered by the lowest original index of their core points."""
-    n = len(root)
-    lowest = np.full(n, n, dtype=np.intp)
-    np.minimum.at(lowest, root[core], order[core])
-    roots = np.flatnonzero(lowest < n)
-    rank = np.empty(n, dtype=np.intp)
-    rank[roots[np.argsort(lowest[roots])]] = np.arange(len(roots))
-    labels = np.full(n, -1, dtype=np.intp)
-    labels[core] = rank[root[core]]
-    return labels
+def _components(root, u, v):
+    """Connected components by hooking and pointer jumping: the lowest node of each component.
+
+    root: (n,) parent pointers with root[i] <= i and root[root] == root; edges (u, v).
+    """
+    while True:
+        ru, rv = root[u], root[v]
+        if not np.count_nonzero(ru != rv):
+            return root
+        m = np.minimum(ru, rv)
+        np.minimum.at(root, ru, m)
+        np.minimum.at(root, rv, m)
+        while True:  # pointer jumping
+            jumped = root[root]
+            if not np.count_nonzero(jumped != root):
+                break
+            root = jumped
+
+
+def _border(lab, core, u, v, lo, hi, s):
+    """Labels (sorted positions) with border points in the lowest cluster among core neighbours.
+
+    lab: (n,) cluster of every core point, n elsewhere. Core neighbours come from the pairs and,
+    on the level, from the nearest core point on each side within the point's range (core points
+    on one side within eps of it are within eps of each other, so in one cluster).
+    """
+    n = len(lab)
+    border = np.full(n + 1, n, dtype=np.intp)
+    np.minimum.at(border, v, lab[u])
+    np.minimum.at(border, u, lab[v])
+    if s < n:
+        idx = np.arange(s, n)
+        cl = core[s:]
+        before = np.maximum.accumulate(np.where(cl, idx, -1))
+        after = np.minimum.accumulate(np.where(cl, idx, n)[::-1])[::-1]
+        lab_n = np.append(lab, n)
+        bl = border[s:n]
+        np.minimum(bl, lab_n[np.where(before >= lo[s:], before, n)], out=bl)
+        np.minimum(bl, lab_n[np.where(after < hi[s:], after, n)], out=bl)
+    out = np.where(core, lab, border[:n])
+    out[out == n] = -1
+    return out
 
 
 def _dbscan_band(X, eps, min_samples):

@@ -60,7 +60,8 @@ def first_step(spec: EpisodeSpec, controllers=FIGURE_CONTROLLERS, approach: int 
     same seed.
 
     Returns:
-      (observation, {name: (controller, action)}) where action is the applied turn rate.
+      (observation, {name: (controller, action)}, steps driven straight), where action is
+      the applied turn rate.
     """
     env = make_env(spec)
     time_step = env.reset()
@@ -81,7 +82,7 @@ def first_step(spec: EpisodeSpec, controllers=FIGURE_CONTROLLERS, approach: int 
         controller = make_controller(dataclasses.replace(spec, controller=name))
         controller.reset()
         out[name] = (controller, float(act(controller, observation)[0]))
-    return observation, out
+    return observation, out, steps
 
 
 def plan_cost(controller, state) -> float:
@@ -97,12 +98,13 @@ def write_figures(
     """Write values.png and rollouts.png for the step of `first_step(spec, ..., approach)`.
 
     Returns:
-      {"files": [paths], "actions": {controller: applied turn rate marked in the figure}}.
+      {"files": [paths], "actions": {controller: applied turn rate marked in the figure},
+       "approach": control steps driven straight before the planned step}.
     """
     plt = _pyplot()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    observation, runs = first_step(spec, controllers, approach)
+    observation, runs, steps = first_step(spec, controllers, approach)
     state = observation["robot_pose"]
 
     fig, axes = plt.subplots(1, len(runs), figsize=(4.2 * len(runs), 3.6), sharey=True)
@@ -160,6 +162,7 @@ def write_figures(
     return {
         "files": [str(values_png), str(rollouts_png)],
         "actions": {name: action for name, (_, action) in runs.items()},
+        "approach": steps,
     }
 
 

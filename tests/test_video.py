@@ -3,19 +3,11 @@
 import subprocess
 import sys
 
-import imageio_ffmpeg
 import numpy as np
 import pytest
+from conftest import frames_of
 
 from dcmppi import tasks, video
-
-
-def frames_of(path):
-    reader = imageio_ffmpeg.read_frames(str(path))
-    meta = next(reader)
-    width, height = meta["size"]
-    frames = [np.frombuffer(f, np.uint8).reshape(height, width, 3) for f in reader]
-    return meta, frames
 
 
 @pytest.mark.parametrize("suffix, camera", [(".mp4", "top"), (".gif", "chase")])

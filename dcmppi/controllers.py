@@ -249,9 +249,12 @@ class Controller:
         u = np.clip(U0[:, None] + eps, -self.omega_max, self.omega_max)
         return u, u - U0[:, None]
 
-    def evaluate(self, x0, u):
-        """Rollouts and costs. x0: (3,) or (3, R); u: (N, R). Returns states (N+1, 3, R), J (R,)."""
-        states = rollout_time_major(x0, u, self.v, self.dt)
+    def evaluate(self, x0, u, starts=1):
+        """Rollouts and costs. x0: (3,) or (3, R); u: (N, R). Returns states (N+1, 3, R), J (R,).
+
+        starts = S > 1: x0 (3, S) start states that all take the R sequences; R becomes S R.
+        """
+        states = rollout_time_major(x0, u, self.v, self.dt, starts)
         x, y = states[:, 0], states[:, 1]
         J = goal_distance(x, y, self._goal)
         if not self._grid.empty and self.alpha:

@@ -57,41 +57,46 @@ def dubins_step(state, omega, v, dt):
     )
 
 
-def rollout_time_major(x0, omega, v, dt):
+def rollout_time_major(x0, omega, v, dt, starts=1):
     """Batched exact rollouts, time-major.
 
     Args:
-      x0: (3,) common initial state, or (3, K) one per rollout.
+      x0: (3,) common initial state, (3, K) one per rollout, or with starts = S > 1, (3, S):
+        S initial states that all take the same K control sequences (Tube-MPPI's nominal and
+        real states); the heading increments and sinc terms are then computed once.
       omega: (N, K) turn rates, already within the control bound.
       v, dt: speed and control period.
     Returns:
-      (N + 1, 3, K) states: [i, 0] = x, [i, 1] = y, [i, 2] = theta at step i (x_0 .. x_N).
+      (N + 1, 3, S K) states: [i, 0] = x, [i, 1] = y, [i, 2] = theta at step i (x_0 .. x_N);
+      columns s K .. (s + 1) K - 1 start from x0[:, s].
     """
     n, k = omega.shape
     x0 = np.asarray(x0, dtype=float)
-    out = np.empty((n + 1, 3, k))
-    out[0] = x0.reshape(3, -1)
+    out = np.empty((n + 1, 3, starts, k))
+    out[0] = x0.reshape(3, starts, -1) if starts > 1 else x0.reshape(3, 1, -1)
     out[0, 2] = wrap_angle(out[0, 2])
     a = omega * (0.5 * dt)
     dtheta = a + a
     theta = out[:, 2]
-    _accumulate(theta, dtheta)
-    mid = (theta[:-1] + a).astype(np.float32)  # headings at mid-period, |mid| < pi + N dt omega_max
-    step = (v * dt) * sinc(a)
-    dxy = np.empty((n, 2, k))
+    _accumulate(theta, dtheta[:, None])
+    mid = (theta[:-1] + a[:, None]).astype(np.float32)  # mid-period headings, |mid| < pi + N dt w
+    step = ((v * dt) * sinc(a))[:, None]
+    dxy = np.empty((n, 2, starts, k))
     np.multiply(step, np.cos(mid), out=dxy[:, 0])
     np.multiply(step, np.sin(mid), out=dxy[:, 1])
     _accumulate(out[:, :2], dxy)
-    return out
+    return out.reshape(n + 1, 3, starts * k)
 
 
 def _accumulate(out, steps):
-    """out[i + 1] = out[i] + steps[i] in order (a running sum). out: (n + 1, ...), steps: (n, ...).
+    """out[i + 1] = out[i] + steps[i] in order (a running sum).
+
+    out: (n + 1, ...); steps: (n, ...) broadcastable to out[1:] (shared by several start states).
 
     Few columns: one cumsum call (the same additions in the same order). Many columns: a loop of
     row additions, several times faster than cumsum over the leading axis.
     """
-    if steps[0].size <= _CUMSUM_MAX_COLUMNS:
+    if out[0].size <= _CUMSUM_MAX_COLUMNS:
         out[1:] = steps
         np.cumsum(out, axis=0, out=out)
         return

@@ -3,6 +3,12 @@
 Problems (deterministic, built here, SPEC defaults K = 500, N = 50):
 - forest: a synthetic forest of clustered overlapping cylinders over 75 x 50 m; `mppi`,
   `clustered` and `tube` drive the analytic Dubins model across it.
+- forest+push (tube): the same, but after every step the real state is pushed along and across
+  its heading and turned by a fixed seeded offset sequence (`push`, zero mean), so Tube-MPPI's
+  nominal state differs from the real one: every step rolls out both (2K rollouts), and when the
+  nominal is kept (about 2 steps in 3: pushed back, the real state costs more) the LQR feedback
+  runs too. Without the push the nominal equals the real state after every reset, so one batch
+  of K rollouts suffices and the feedback is zero.
 - crowd: 100 moving cylinders drawn per SPEC section 4 (radius 1 m, speeds U(0.5, 1.5) m/s,
   turn rates U(-0.5, 0.5) rad/s, reflecting off the boundary); `dc` with P = 25 (and the others
   for reference).
@@ -81,11 +87,27 @@ def move_crowd(moving, speed, turn, dt):
     return np.column_stack([nxt, moving[:, 3]])
 
 
+PUSH_STD = (0.15, 0.03, 0.01)  # std of the push along [m], across [m] and of the turn [rad]
+
+
+def push(steps, seed=0):
+    """(steps, 3) offsets (along, across, turn) of forest+push, from a seeded generator."""
+    return np.random.default_rng(seed).normal(0.0, PUSH_STD, (steps, 3))
+
+
+def pushed(state, offset):
+    """state (3,) moved by offset[0] along its heading, offset[1] to its left, turned offset[2]."""
+    c, s = np.cos(state[2]), np.sin(state[2])
+    along, across, turn = offset
+    return state + np.array([along * c - across * s, along * s + across * c, turn])
+
+
 def time_controller(name, problem, steps, **params):
     """Median and p95 ms per step of a closed loop on the analytic model."""
     ctrl = make_controller(name, seed=0, **params)
     dt = ctrl.dt
-    if problem == "forest":
+    offsets = push(steps) if problem == "forest+push" else None
+    if problem in ("forest", "forest+push"):
         static, state, goal = forest()
         moving, model = None, None
     else:
@@ -98,6 +120,8 @@ def time_controller(name, problem, steps, **params):
         omega = ctrl.act(state, goal, static, moving, model)
         times.append(time.perf_counter() - t0)
         state = dubins_step(state, omega, ctrl.v, dt)
+        if offsets is not None:
+            state = pushed(state, offsets[len(times) - 1])
         if moving is not None:
             moving = move_crowd(moving, speed, turn, dt)
     times = np.array(times[3:]) * 1e3  # skip the first steps (cost-map build, caches)
@@ -108,12 +132,17 @@ CASES = (
     ("mppi", "forest"),
     ("clustered", "forest"),
     ("tube", "forest"),
+    ("tube", "forest+push"),
     ("mppi", "crowd"),
     ("clustered", "crowd"),
     ("dc", "crowd"),
 )
 TARGETS = {("mppi", "forest"): 1.0, ("dc", "crowd"): 10.0}  # ms
-RATIO_TARGETS = {("clustered", "forest"): 1.5, ("tube", "forest"): 2.5}
+RATIO_TARGETS = {
+    ("clustered", "forest"): 1.5,
+    ("tube", "forest"): 2.5,
+    ("tube", "forest+push"): 2.5,
+}
 
 
 def main(argv=None):
@@ -132,6 +161,7 @@ def main(argv=None):
                 {"controller": name, "problem": problem, "median_ms": median, "p95_ms": p95}
             )
     base = {r["problem"]: r["median_ms"] for r in rows if r["controller"] == "mppi"}
+    base["forest+push"] = base["forest"]  # mppi needs no nominal state: the push changes nothing
     for r in rows:
         r["ratio_to_mppi"] = r["median_ms"] / base[r["problem"]]
         key = (r["controller"], r["problem"])
@@ -152,10 +182,11 @@ def main(argv=None):
     print(
         f"dcmppi timing: K={info['K']} N={info['N']} P={info['P']}, one thread, {args.steps} steps"
     )
-    print(f"{'controller':<10} {'problem':<7} {'median ms':>9} {'p95 ms':>7} {'x mppi':>6}  target")
+    header = f"{'controller':<10} {'problem':<11} {'median ms':>9} {'p95 ms':>7} {'x mppi':>6}"
+    print(f"{header}  target")
     for r in rows:
         print(
-            f"{r['controller']:<10} {r['problem']:<7} {r['median_ms']:9.3f} {r['p95_ms']:7.3f} "
+            f"{r['controller']:<10} {r['problem']:<11} {r['median_ms']:9.3f} {r['p95_ms']:7.3f} "
             f"{r['ratio_to_mppi']:6.2f}  {r['target']}"
         )
     return 0

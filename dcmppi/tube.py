@@ -15,12 +15,37 @@ uncontrollable, so the nominal also resets whenever |x - z| (position) exceeds `
 import numpy as np
 
 from .controllers import _positive, register
-from .dynamics import dubins_step, rollout_time_major, sinc, wrap_angle
+from .dynamics import dubins_step, sinc, wrap_angle
 from .mppi import MPPI, effective_sample_size, mppi_update
 
 RESET_THRESHOLD = 5.0  # cost units (sum of N + 1 goal distances [m])
 MAX_DEVIATION = 1.0  # [m]
 Q_POS, Q_THETA, R_OMEGA = 1.0, 1.0, 1.0
+
+
+def jacobian_terms(theta, U, v, dt):
+    """The entries of the exact discrete Dubins step's Jacobians that vary along a trajectory.
+
+    A_i = I + c0_i e_x e_theta^T + c1_i e_y e_theta^T, B_i = (b0_i, b1_i, dt).
+
+    Args:
+      theta: (N + 1,) or more nominal headings (the first N are used); U: (N,) nominal controls.
+    Returns:
+      c0, c1, b0, b1: (N,) each.
+    """
+    a = 0.5 * U * dt
+    heading = theta[: len(U)] + a
+    s = sinc(a)
+    ds = np.where(
+        np.abs(a) < 1e-4, -a / 3.0, (a * np.cos(a) - np.sin(a)) / np.where(a == 0, 1, a) ** 2
+    )
+    c, sn = np.cos(heading), np.sin(heading)
+    return (
+        -v * dt * s * sn,
+        v * dt * s * c,
+        0.5 * dt * v * dt * (ds * c - s * sn),
+        0.5 * dt * v * dt * (ds * sn + s * c),
+    )
 
 
 def linearize(states, U, v, dt):
@@ -31,26 +56,16 @@ def linearize(states, U, v, dt):
     Returns:
       A: (N, 3, 3), B: (N, 3).
     """
-    a = 0.5 * U * dt
-    heading = states[:-1, 2] + a
-    s = sinc(a)
-    ds = np.where(
-        np.abs(a) < 1e-4, -a / 3.0, (a * np.cos(a) - np.sin(a)) / np.where(a == 0, 1, a) ** 2
-    )
-    c, sn = np.cos(heading), np.sin(heading)
+    c0, c1, b0, b1 = jacobian_terms(states[:, 2], U, v, dt)
     n = len(U)
     A = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
-    A[:, 0, 2] = -v * dt * s * sn
-    A[:, 1, 2] = v * dt * s * c
-    B = np.empty((n, 3))
-    B[:, 0] = 0.5 * dt * v * dt * (ds * c - s * sn)
-    B[:, 1] = 0.5 * dt * v * dt * (ds * sn + s * c)
-    B[:, 2] = dt
+    A[:, 0, 2], A[:, 1, 2] = c0, c1
+    B = np.column_stack([b0, b1, np.full(n, dt)])
     return A, B
 
 
 def tvlqr_gains(A, B, Q, R, Qf):
-    """Time-varying LQR gains for x_{i+1} = A_i x_i + B_i u_i, u_i = -K_i x_i.
+    """Time-varying LQR gains for x_{i+1} = A_i x_i + B_i u_i, u_i = -K_i x_i (any A, B).
 
     Args:
       A: (N, n, n), B: (N, n) single input; Q, Qf: (n, n); R: scalar.
@@ -67,6 +82,44 @@ def tvlqr_gains(A, B, Q, R, Qf):
         P = Q + a.T @ PA - np.outer(bPA, K[i])
         P = 0.5 * (P + P.T)
     return K
+
+
+def dubins_lqr_gain(c0, c1, b0, b1, b2, q_pos, q_theta, r):
+    """K_0 of tvlqr_gains for the Dubins Jacobians (jacobian_terms), in scalar arithmetic.
+
+    Same Riccati backward pass as tvlqr_gains with Q = Q_N = diag(q_pos, q_pos, q_theta) and
+    R = r, written out for A_i = I + c0_i e_x e_theta^T + c1_i e_y e_theta^T, B_i = (b0_i, b1_i,
+    b2): the six entries of the symmetric P as Python floats (one 3 x 3 numpy product costs more
+    than this whole step). Equal to tvlqr_gains(...)[0] up to rounding.
+
+    Args:
+      c0, c1, b0, b1: (N,) Jacobian entries; b2: dt; q_pos, q_theta, r: weights.
+    Returns:
+      (3,) gain K_0.
+    """
+    p00, p01, p02, p11, p12, p22 = q_pos, 0.0, 0.0, q_pos, 0.0, q_theta
+    g0 = g1 = g2 = 0.0
+    den = 1.0
+    for e0, e1, f0, f1 in zip(c0[::-1].tolist(), c1[::-1].tolist(), b0[::-1].tolist(),
+                              b1[::-1].tolist(), strict=True):  # fmt: skip
+        m02 = e0 * p00 + e1 * p01 + p02  # third column of P A
+        m12 = e0 * p01 + e1 * p11 + p12
+        m22 = e0 * p02 + e1 * p12 + p22
+        g0 = f0 * p00 + f1 * p01 + b2 * p02  # B^T P A
+        g1 = f0 * p01 + f1 * p11 + b2 * p12
+        h2 = f0 * p02 + f1 * p12 + b2 * p22
+        g2 = e0 * g0 + e1 * g1 + h2
+        den = r + f0 * g0 + f1 * g1 + b2 * h2  # R + B^T P B
+        # P <- Q + A^T P A - (B^T P A)^T (B^T P A) / den
+        p00, p01, p02, p11, p12, p22 = (
+            q_pos + p00 - g0 * g0 / den,
+            p01 - g0 * g1 / den,
+            m02 - g0 * g2 / den,
+            q_pos + p11 - g1 * g1 / den,
+            m12 - g1 * g2 / den,
+            q_theta + e0 * m02 + e1 * m12 + m22 - g2 * g2 / den,
+        )
+    return np.array([g0, g1, g2]) / den
 
 
 @register("tube")
@@ -93,7 +146,6 @@ class TubeMPPI(MPPI):
         self.q_pos = _positive("q_pos", q_pos, allow_zero=True)
         self.q_theta = _positive("q_theta", q_theta, allow_zero=True)
         self.r_omega = _positive("r_omega", r_omega)
-        self._Q = np.diag([self.q_pos, self.q_pos, self.q_theta])
         super().__init__(**params)
 
     def reset(self, seed=None):
@@ -123,7 +175,8 @@ class TubeMPPI(MPPI):
 
         Returns the chosen solve's states (N + 1, 3, K), J (K,), S (K,) and the reset flag. When
         z equals the real state (after every reset on a noise-free model) both solves are the
-        same computation, so one batch of K rollouts stands for both.
+        same computation, so one batch of K rollouts stands for both. Otherwise one batch of 2K
+        rollouts from the two start states (heading increments and sinc terms shared).
         """
         importance = self.importance(self.U, eps)
         if np.array_equal(z, state):
@@ -132,14 +185,15 @@ class TubeMPPI(MPPI):
             m = S.min()
             return states, J, S, bool(m < m + self.reset_threshold)
         K = self.K
-        x0 = np.column_stack([np.repeat(z[:, None], K, 1), np.repeat(state[:, None], K, 1)])
-        states, J = self.evaluate(x0, np.concatenate([u, u], axis=1))
-        S = J + np.tile(importance, 2)
-        reset = S[K:].min() < S[:K].min() + self.reset_threshold or (
+        states, J = self.evaluate(np.column_stack([z, state]), u, starts=2)
+        J_nom, J_real = J[:K], J[K:]
+        S_nom, S_real = J_nom + importance, J_real + importance
+        reset = S_real.min() < S_nom.min() + self.reset_threshold or (
             np.hypot(*(state[:2] - z[:2])) > self.max_deviation
         )
-        half = slice(K, None) if reset else slice(None, K)
-        return states[:, :, half], J[half], S[half], reset
+        if reset:
+            return states[:, :, K:], J_real, S_real, reset
+        return states[:, :, :K], J_nom, S_nom, reset
 
     def _feedback(self, z, state, plan):
         """K_0 (x - z) of the time-varying LQR along the nominal plan (0 when x equals z)."""
@@ -147,7 +201,8 @@ class TubeMPPI(MPPI):
         error[2] = wrap_angle(error[2])
         if not error.any():  # K_0 @ 0 = 0: the gains are not needed
             return 0.0
-        nominal = rollout_time_major(z, plan[:, None], self.v, self.dt)[:, :, 0]
-        A, B = linearize(nominal, plan, self.v, self.dt)
-        gain = tvlqr_gains(A, B, self._Q, self.r_omega, self._Q)[0]
+        # Nominal headings: the running sum of the rollout's heading increments.
+        theta = np.cumsum(np.concatenate([[wrap_angle(z[2])], plan * self.dt]))
+        c0, c1, b0, b1 = jacobian_terms(theta, plan, self.v, self.dt)
+        gain = dubins_lqr_gain(c0, c1, b0, b1, self.dt, self.q_pos, self.q_theta, self.r_omega)
         return gain @ error

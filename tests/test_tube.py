@@ -4,7 +4,7 @@ import numpy as np
 
 import dcmppi
 from dcmppi.dynamics import dubins_step, rollout, wrap_angle
-from dcmppi.tube import linearize, tvlqr_gains
+from dcmppi.tube import dubins_lqr_gain, jacobian_terms, linearize, tvlqr_gains
 
 GOAL = np.array([20.0, 0.0])
 
@@ -52,3 +52,54 @@ def test_nominal_propagates_once_per_step():
     ctrl.act(state, GOAL)
     z = ctrl.diagnostics.nominal_state
     np.testing.assert_allclose(ctrl.nominal, dubins_step(z, ctrl.diagnostics.plan[0], 1.0, 0.1))
+
+
+def test_scalar_riccati_equals_matrix_riccati():
+    rng = np.random.default_rng(0)
+    v, dt, N = 1.0, 0.1, 50
+    U = rng.uniform(-1.0, 1.0, N)
+    nominal = rollout(np.array([1.0, 2.0, 3.0]), U, v, dt)
+    A, B = linearize(nominal, U, v, dt)
+    c0, c1, b0, b1 = jacobian_terms(nominal[:, 2], U, v, dt)
+    for q_pos, q_theta, r in [(1.0, 1.0, 1.0), (2.0, 0.5, 0.3), (0.0, 1.0, 4.0)]:
+        Q = np.diag([q_pos, q_pos, q_theta])
+        expected = tvlqr_gains(A, B, Q, r, Q)[0]
+        got = dubins_lqr_gain(c0, c1, b0, b1, dt, q_pos, q_theta, r)
+        np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-14)
+
+
+def test_nominal_kept_runs_lqr_feedback():
+    """Real state pushed back (worse): the nominal is kept and the applied control differs from
+    the plan by the LQR feedback, which steers back towards the nominal's lateral offset."""
+    d = step_with_nominal([0.0, 0.5, 0.0], [-0.5, 0.0, 0.0], threshold=0.0)
+    assert not d.nominal_reset
+    assert d.action != d.plan[0]
+    assert d.action > d.plan[0]  # the nominal lies to the left: turn left (counter-clockwise)
+
+
+def test_two_start_batch_equals_separate_rollouts():
+    ctrl = dcmppi.make_controller("tube", seed=0, K=64)
+    ctrl.act(np.zeros(3), GOAL)  # sets the goal and the cost map
+    u, _ = ctrl.controls(ctrl.U, ctrl.sample())
+    z, x = np.array([0.0, 0.0, 0.1]), np.array([0.2, -0.1, 7.0])
+    states, J = ctrl.evaluate(np.column_stack([z, x]), u, starts=2)
+    for i, start in enumerate([z, x]):
+        s1, J1 = ctrl.evaluate(start, u)
+        np.testing.assert_array_equal(states[:, :, i * 64 : (i + 1) * 64], s1)
+        np.testing.assert_array_equal(J[i * 64 : (i + 1) * 64], J1)
+
+
+def test_timing_push_keeps_the_nominal_in_some_steps():
+    """dcmppi timing's forest+push row exercises both solves and the LQR feedback."""
+    from dcmppi.timing import forest, push, pushed
+
+    static, state, goal = forest()
+    ctrl = dcmppi.make_controller("tube", seed=0)
+    offsets = push(20)
+    np.testing.assert_array_equal(offsets, push(20))  # deterministic
+    kept = 0
+    for offset in offsets:
+        omega = ctrl.act(state, goal, static)
+        kept += not ctrl.diagnostics.nominal_reset
+        state = pushed(dubins_step(state, omega, ctrl.v, ctrl.dt), offset)
+    assert 5 <= kept < 20

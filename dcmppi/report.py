@@ -121,6 +121,32 @@ def table(rows: list[dict], experiment: str) -> str:
     return "\n".join(lines)
 
 
+def speed_table(rows: list[dict]) -> str:
+    """Where an episode's wall time goes, per controller: ms per control step in the
+    controller, in env.step (MuJoCo physics and the task) and elsewhere (environment
+    construction, observation handling, bookkeeping), and seconds per episode."""
+    lines = [
+        "| Controller | Episodes | Steps/episode | Controller ms/step | env.step ms/step | "
+        "Other ms/step | Wall s/episode |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    controllers = sorted({r["controller"] for r in rows}, key=_controller_order)
+    for c in controllers:
+        ok = [r for r in rows if r["controller"] == c and r["status"] == "ok"]
+        steps = sum(r["steps"] for r in ok)
+        if not steps:
+            continue
+        ctrl = sum(r["ctrl_ms_mean"] * r["steps"] for r in ok) / steps
+        env = sum(r["env_ms_mean"] * r["steps"] for r in ok) / steps
+        wall = sum(r["wall_s"] for r in ok)
+        other = 1e3 * wall / steps - ctrl - env
+        lines.append(
+            f"| {c} | {len(ok)} | {steps / len(ok):.0f} | {ctrl:.3f} | {env:.3f} | "
+            f"{other:.3f} | {wall / len(ok):.2f} |"
+        )
+    return "\n".join(lines)
+
+
 def write_report(db_path: str | Path, out_dir: str | Path, plots: bool = True) -> str:
     """Write report.md, episodes.csv and the PNG plots into out_dir; return the table."""
     db = ResultsDB(db_path)
@@ -146,6 +172,10 @@ def write_report(db_path: str | Path, out_dir: str | Path, plots: bool = True) -
         "figures count out of 1000 environments and were timed in MATLAB on an i7 laptop.",
         "",
         f"Configuration: `{config}`",
+        "",
+        "## Time per episode (wall clock of each worker)",
+        "",
+        speed_table(rows),
     ]
     if plots:
         from dcmppi import plots as plotting

@@ -160,6 +160,11 @@ def test_report_numbers_match_the_rows(tmp_path):
         line = next(x for x in text.splitlines() if f"| {c} |" in x)
         assert f"| {s[('none', c)]['episodes']} |" in line
         assert f"{s[('none', c)]['failure_pct']:.1f} [" in line
+    report = (tmp_path / "out" / "report.md").read_text()
+    for c in ("mppi", "clustered"):
+        ok = [r for r in rows if r["controller"] == c]
+        steps = sum(r["steps"] for r in ok) / len(ok)
+        assert f"| {c} | {len(ok)} | {steps:.0f} |" in report  # the time-per-episode table
     csv_rows = (tmp_path / "out" / "episodes.csv").read_text().strip().splitlines()
     assert len(csv_rows) == 1 + len(rows)
     for png in ("failure_rates.png", "controller_time.png", "paths.png"):

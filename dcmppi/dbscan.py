@@ -13,10 +13,12 @@ noise, -1.
 Two features (Clustered MPPI with constant perturbations: eps_k / sigma and the clipped scaled
 cost), `_dbscan_2d`: most samples sit exactly at the cost clip, the largest second feature. When
 at least MIN_LEVEL points share the largest second feature they form the "level", a 1-D problem:
-neighbour ranges by binary search, core points connected in runs of consecutive core points (no
-pair lists). The other ("free") points, sorted by the second feature, and the few pairs between
-them and the level are explicit pair lists from a band search. Cost O(K log K + pairs off the
-level), about 40 numpy calls.
+neighbours are consecutive, so a window of the next min_samples - 1 points decides core points
+and border points, and core points connect in runs of consecutive core points (no pair lists).
+The other ("free") points, sorted by the second feature, and the few pairs between them and the
+level are explicit pair lists from a band search. Components: hooking and pointer jumping over
+original indices, so each cluster's root is its lowest index and numbering needs no sort. Cost
+O(K log K + pairs off the level), about 70 numpy calls.
 
 Other dimensions, `_dbscan_band`: after sorting by the first feature, the neighbours of point i
 lie among the next `width` points; components by min-label propagation over that band.
@@ -57,13 +59,18 @@ def _dbscan_2d(X, eps, min_samples):
     s = n - np.count_nonzero(b == b[-1])  # the level (largest b) is [s, n)
     if n - s < MIN_LEVEL:
         s = n
-    # Neighbours (sorted positions): level ranges [lo, hi) (self only off the level) and the
-    # explicit pairs u < v with a free point u.
-    lo, hi = np.arange(n), np.arange(1, n + 1)
+    # Neighbours (sorted positions): windows of followers and predecessors on the level (see
+    # _level_window) and the explicit pairs u < v with a free point u.
+    count = np.ones(n, dtype=np.intp)
     if s < n:
-        lo[s:], hi[s:] = _level_ranges(a[s:], eps2, s)
+        after = _level_window(a[s:], eps2, min_samples)
+        before = _before_edges(after)
+        count[s:] += np.count_nonzero(after, axis=0)
+        count[s:] += np.count_nonzero(before, axis=0)
     u, v = _pairs(a, b, s, eps, eps2)
-    core = hi - lo + np.bincount(u, minlength=n) + np.bincount(v, minlength=n) >= min_samples
+    count += np.bincount(u, minlength=n)
+    count += np.bincount(v, minlength=n)
+    core = count >= min_samples
     labels = np.full(n, -1, dtype=np.intp)
     if not core.any():
         return labels
@@ -75,26 +82,33 @@ def _dbscan_2d(X, eps, min_samples):
     is_root = np.zeros(n + 1, dtype=bool)
     is_root[np.where(core, root, n)] = True
     lab = np.where(core, np.cumsum(is_root)[root] - 1, n)  # sorted positions, n: not core
-    labels[order] = _border(lab, core, u, v, lo, hi, s)
+    # Border points: the lowest cluster among core neighbours (pairs, then the level windows).
+    border = np.full(n, n, dtype=np.intp)
+    np.minimum.at(border, v, lab[u])
+    np.minimum.at(border, u, lab[v])
+    if s < n:
+        w, level = len(after), lab[s:]
+        tail = border[s:]
+        np.minimum(tail, np.where(after, _after(level, w, n), n).min(axis=0), out=tail)
+        np.minimum(tail, np.where(before, _before(level, w, n), n).min(axis=0), out=tail)
+    lab = np.where(core, lab, border)
+    lab[lab == n] = -1
+    labels[order] = lab
     return labels
 
 
-def _level_ranges(al, eps2, offset):
-    """Neighbour ranges [lo, hi) + offset of every point of a level (sorted values al)."""
-    pad = np.sqrt(eps2) * (_WIDEN + 1e-6)
-    lo = np.searchsorted(al, al - pad, "left")
-    hi = np.searchsorted(al, al + pad, "right")
-    m = len(al)
-    ends = np.empty(2 * m, dtype=np.intp)  # the first and last candidate of every range
-    while True:  # trim candidates outside the exact test (rare: within 1e-6 eps of the edge)
-        np.minimum(lo, m - 1, out=ends[:m])
-        np.subtract(hi, 1, out=ends[m:])
-        d = al[ends] - np.tile(al, 2)
-        bad = d * d > eps2
-        if not bad.any():
-            return lo + offset, hi + offset
-        lo += bad[:m]
-        hi -= bad[m:]
+def _level_window(al, eps2, min_samples):
+    """(w, m) neighbours among the next w points of a level (sorted values al), w < min_samples.
+
+    [k, i]: al[i + k + 1] is within eps of al[i]. Neighbours on a level are consecutive, so the
+    window holds min(neighbours after i, w); with w = min_samples - 1 that decides every core
+    point, and a non-core point's core neighbours on the level lie within w places (otherwise the
+    w points in between would be its neighbours too, making it core).
+    """
+    w = max(1, min(min_samples - 1, len(al) - 1))
+    d = _after(al, w, np.inf) - al
+    d *= d
+    return d <= eps2
 
 
 def _pairs(a, b, s, eps, eps2):
@@ -165,31 +179,6 @@ def _components(root, u, v):
             if not np.count_nonzero(jumped != root):
                 break
             root = jumped
-
-
-def _border(lab, core, u, v, lo, hi, s):
-    """Labels (sorted positions) with border points in the lowest cluster among core neighbours.
-
-    lab: (n,) cluster of every core point, n elsewhere. Core neighbours come from the pairs and,
-    on the level, from the nearest core point on each side within the point's range (core points
-    on one side within eps of it are within eps of each other, so in one cluster).
-    """
-    n = len(lab)
-    border = np.full(n + 1, n, dtype=np.intp)
-    np.minimum.at(border, v, lab[u])
-    np.minimum.at(border, u, lab[v])
-    if s < n:
-        idx = np.arange(s, n)
-        cl = core[s:]
-        before = np.maximum.accumulate(np.where(cl, idx, -1))
-        after = np.minimum.accumulate(np.where(cl, idx, n)[::-1])[::-1]
-        lab_n = np.append(lab, n)
-        bl = border[s:n]
-        np.minimum(bl, lab_n[np.where(before >= lo[s:], before, n)], out=bl)
-        np.minimum(bl, lab_n[np.where(after < hi[s:], after, n)], out=bl)
-    out = np.where(core, lab, border[:n])
-    out[out == n] = -1
-    return out
 
 
 def _dbscan_band(X, eps, min_samples):

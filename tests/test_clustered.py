@@ -39,6 +39,30 @@ def test_dbscan_levels_identical_to_sklearn(seed):
         np.testing.assert_array_equal(dbscan(X, eps, ms), expected)
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_dbscan_level_edge_cases_identical_to_sklearn(seed):
+    """The level path: sizes around MIN_LEVEL, large min_samples (wide windows), one level only,
+    integer grids (exact ties at eps), and free points just below the level."""
+    rng = np.random.default_rng(10 + seed)
+    for _ in range(80):
+        n = int(rng.integers(1, 120))
+        X = np.column_stack([rng.standard_normal(n), rng.uniform(0.0, 1.0, n)])
+        top = rng.uniform(0.5, 1.0)
+        X[rng.random(n) < rng.uniform(0.0, 1.0), 1] = top  # the level, possibly below MIN_LEVEL
+        X[:, 1] = np.minimum(X[:, 1], top)
+        kind = rng.integers(4)
+        if kind == 1:
+            X[:, 0] = rng.integers(-8, 8, n) * 0.1  # ties exactly at eps = 0.1 * k
+        elif kind == 2:
+            X[:, 1] = top  # everything on the level
+        elif kind == 3:
+            X[:, 1] = np.where(X[:, 1] < top, top - rng.uniform(0, 0.3, n), top)  # near the level
+        eps = float(rng.choice([0.1, 0.2, rng.uniform(0.05, 0.6)]))
+        ms = int(rng.integers(1, 30))
+        expected = DBSCAN(eps=eps, min_samples=ms).fit(X).labels_
+        np.testing.assert_array_equal(dbscan(X, eps, ms), expected)
+
+
 def two_valley(eps):
     """Paper Fig. 2: good modes at +-0.5, a ridge of high cost at the mean 0."""
     return 1.0 * np.minimum((eps - 0.5) ** 2, (eps + 0.5) ** 2) * 20 + 50.0 * (np.abs(eps) < 0.25)

@@ -12,7 +12,9 @@ Problems (deterministic, built here, SPEC defaults K = 500, N = 50):
 - crowd: 100 moving cylinders drawn per SPEC section 4 (radius 1 m, speeds U(0.5, 1.5) m/s,
   turn rates U(-0.5, 0.5) rad/s, reflecting off the boundary); `dc` with P = 25 (and the others
   for reference).
-BLAS and OpenMP pools are limited to one thread; the figures are for one core.
+BLAS and OpenMP pools are limited to one thread; the figures are for one core. The cases of a
+problem run interleaved (one step of each in turn), so load changes on a shared machine hit them
+alike.
 """
 
 import argparse
@@ -102,30 +104,64 @@ def pushed(state, offset):
     return state + np.array([along * c - across * s, along * s + across * c, turn])
 
 
-def time_controller(name, problem, steps, **params):
-    """Median and p95 ms per step of a closed loop on the analytic model."""
-    ctrl = make_controller(name, seed=0, **params)
-    dt = ctrl.dt
-    offsets = push(steps) if problem == "forest+push" else None
-    if problem in ("forest", "forest+push"):
-        static, state, goal = forest()
-        moving, model = None, None
-    else:
-        static, state, goal = None, np.array([2.0, 25.0, 0.0]), np.array([73.0, 25.0])
-        moving, speed, turn = crowd()
-        model = obstacle_model()
-    times = []
-    for _ in range(steps):
+class ClosedLoop:
+    """One controller driving the analytic model on a timing problem, one timed step at a time."""
+
+    def __init__(self, name, problem, steps, **params):
+        self.ctrl = make_controller(name, seed=0, **params)
+        self.offsets = push(steps) if problem == "forest+push" else None
+        if problem in ("forest", "forest+push"):
+            self.static, self.state, self.goal = forest()
+            self.moving = self.model = None
+        else:
+            self.static, self.state = None, np.array([2.0, 25.0, 0.0])
+            self.goal = np.array([73.0, 25.0])
+            self.moving, self.speed, self.turn = crowd()
+            self.model = obstacle_model()
+        self.times = []
+
+    def step(self):
+        """One control step; its controller time is appended to `times` [s]."""
+        ctrl = self.ctrl
         t0 = time.perf_counter()
-        omega = ctrl.act(state, goal, static, moving, model)
-        times.append(time.perf_counter() - t0)
-        state = dubins_step(state, omega, ctrl.v, dt)
-        if offsets is not None:
-            state = pushed(state, offsets[len(times) - 1])
-        if moving is not None:
-            moving = move_crowd(moving, speed, turn, dt)
-    times = np.array(times[3:]) * 1e3  # skip the first steps (cost-map build, caches)
-    return float(np.median(times)), float(np.percentile(times, 95))
+        omega = ctrl.act(self.state, self.goal, self.static, self.moving, self.model)
+        self.times.append(time.perf_counter() - t0)
+        self.state = dubins_step(self.state, omega, ctrl.v, ctrl.dt)
+        if self.offsets is not None:
+            self.state = pushed(self.state, self.offsets[len(self.times) - 1])
+        if self.moving is not None:
+            self.moving = move_crowd(self.moving, self.speed, self.turn, ctrl.dt)
+
+    def summary(self):
+        """Median and p95 ms per step, skipping the first steps (cost-map build, caches)."""
+        times = np.array(self.times[3:]) * 1e3
+        return float(np.median(times)), float(np.percentile(times, 95))
+
+
+def time_cases(cases, steps):
+    """Median and p95 ms per step of every (name, problem) case.
+
+    The closed loops of one problem family (forest, crowd) run interleaved, one step of each
+    case in turn, so a change in machine load affects them alike and the ratios to mppi stay
+    meaningful on a busy machine; the families run one after the other.
+    """
+    loops = [ClosedLoop(name, problem, steps) for name, problem in cases]
+    families = {}
+    for loop, (_, problem) in zip(loops, cases, strict=True):
+        families.setdefault(problem.split("+")[0], []).append(loop)
+    for family in families.values():
+        for _ in range(steps):
+            for loop in family:
+                loop.step()
+    return [loop.summary() for loop in loops]
+
+
+def time_controller(name, problem, steps, **params):
+    """Median and p95 ms per step of one closed loop on the analytic model."""
+    loop = ClosedLoop(name, problem, steps, **params)
+    for _ in range(steps):
+        loop.step()
+    return loop.summary()
 
 
 CASES = (
@@ -153,13 +189,12 @@ def main(argv=None):
     args = parser.parse_args(argv)
     if args.steps < 5:
         parser.error("--steps must be >= 5")
-    rows = []
     with threadpool_limits(1):
-        for name, problem in CASES:
-            median, p95 = time_controller(name, problem, args.steps)
-            rows.append(
-                {"controller": name, "problem": problem, "median_ms": median, "p95_ms": p95}
-            )
+        times = time_cases(CASES, args.steps)
+    rows = [
+        {"controller": name, "problem": problem, "median_ms": median, "p95_ms": p95}
+        for (name, problem), (median, p95) in zip(CASES, times, strict=True)
+    ]
     base = {r["problem"]: r["median_ms"] for r in rows if r["controller"] == "mppi"}
     base["forest+push"] = base["forest"]  # mppi needs no nominal state: the push changes nothing
     for r in rows:

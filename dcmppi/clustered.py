@@ -33,9 +33,14 @@ def cluster_features(eps, S, lambda_, sigma, cost_clip=COST_CLIP, raw=None):
       eps: (N, K) clipped perturbations (time-major). S: (K,) costs.
       sigma: perturbation standard deviation. raw: (K,) scalar constant perturbations, if any.
     """
-    cost = np.minimum((S - S.min()) / lambda_, cost_clip)
     if raw is not None:
-        return np.column_stack([raw / sigma, cost])
+        features = np.empty((2, len(S)))  # returned transposed: contiguous columns for dbscan
+        np.divide(raw, sigma, out=features[0])
+        np.subtract(S, S.min(), out=features[1])
+        features[1] /= lambda_
+        np.minimum(features[1], cost_clip, out=features[1])
+        return features.T
+    cost = np.minimum((S - S.min()) / lambda_, cost_clip)
     return np.column_stack([eps.T / (sigma * np.sqrt(len(eps))), cost])
 
 
@@ -56,14 +61,19 @@ def cluster_updates(U0, eps, S, lambda_, labels):
     """
     M = int(labels.max()) + 1 if len(labels) else 0
     member = np.flatnonzero(labels >= 0)
-    lab = labels[member]
+    lab, S_member = labels[member], S[member]
     rho = np.full(M, np.inf)
-    np.minimum.at(rho, lab, S[member])
-    w = np.exp((rho[lab] - S[member]) / lambda_)
+    np.minimum.at(rho, lab, S_member)
+    w = rho[lab]
+    w -= S_member
+    w /= lambda_
+    np.exp(w, out=w)
     w /= np.bincount(lab, w, minlength=M)[lab]
     W = np.zeros((M, len(S)))
     W[lab, member] = w
-    return U0 + W @ eps.T, W
+    U = W @ eps.T
+    U += U0
+    return U, W
 
 
 @register("clustered")

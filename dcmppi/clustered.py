@@ -11,11 +11,13 @@ Features (SPEC section 2), scaled so one DBSCAN radius works at every step:
 DBSCAN: radius dbscan_eps, min_samples dbscan_min_samples; noise points (label -1) belong to no
 cluster; with no cluster at all the step falls back to Alg. 1 over all samples. Each cluster's
 control sequence is rolled out without noise and the one with the least cost J is applied.
-Two features use dcmppi.dbscan (sklearn's labels, ~10x faster); more use sklearn itself.
+Labels from dcmppi.dbscan: sklearn's labels, compiled with numba for two features (~50x faster),
+sklearn itself for the N + 1 features of time-varying perturbations. The per-cluster weights
+are numba loops too (numpy's exp and matrix product keep the values of the numpy version).
 """
 
+import numba
 import numpy as np
-from sklearn.cluster import DBSCAN
 
 from .controllers import _positive, register
 from .dbscan import dbscan
@@ -45,10 +47,8 @@ def cluster_features(eps, S, lambda_, sigma, cost_clip=COST_CLIP, raw=None):
 
 
 def cluster_labels(features, dbscan_eps=DBSCAN_EPS, min_samples=DBSCAN_MIN_SAMPLES):
-    """DBSCAN labels (K,), -1 for noise."""
-    if features.shape[1] == 2:
-        return dbscan(features, dbscan_eps, min_samples)
-    return DBSCAN(eps=dbscan_eps, min_samples=min_samples).fit(features).labels_
+    """DBSCAN labels (K,), -1 for noise, for (K, d) features."""
+    return dbscan(features, dbscan_eps, min_samples)
 
 
 def cluster_updates(U0, eps, S, lambda_, labels):
@@ -60,20 +60,50 @@ def cluster_updates(U0, eps, S, lambda_, labels):
       U: (M, N) control sequence per cluster; W: (M, K) weights (each row sums to 1).
     """
     M = int(labels.max()) + 1 if len(labels) else 0
-    member = np.flatnonzero(labels >= 0)
-    lab, S_member = labels[member], S[member]
-    rho = np.full(M, np.inf)
-    np.minimum.at(rho, lab, S_member)
-    w = rho[lab]
-    w -= S_member
-    w /= lambda_
-    np.exp(w, out=w)
-    w /= np.bincount(lab, w, minlength=M)[lab]
-    W = np.zeros((M, len(S)))
-    W[lab, member] = w
+    exponent = _cluster_exponents(S, labels, M, lambda_)
+    np.exp(exponent, out=exponent)  # numpy's exp: the same values as Alg. 1's weights
+    W = _cluster_weights(exponent, labels, M)
     U = W @ eps.T
     U += U0
     return U, W
+
+
+@numba.njit(cache=True)
+def _cluster_exponents(S, labels, M, lambda_):
+    """(rho_c - S_k) / lambda for the clustered samples k in index order, rho_c: the least cost
+    of k's cluster c. Returns (members,)."""
+    rho = np.full(M, np.inf)
+    members = 0
+    for k in range(len(S)):
+        if labels[k] >= 0:
+            rho[labels[k]] = min(rho[labels[k]], S[k])
+            members += 1
+    exponent = np.empty(members)
+    m = 0
+    for k in range(len(S)):
+        if labels[k] >= 0:
+            exponent[m] = (rho[labels[k]] - S[k]) / lambda_
+            m += 1
+    return exponent
+
+
+@numba.njit(cache=True)
+def _cluster_weights(w, labels, M):
+    """(M, K) weights: the clustered samples' exp terms w (members,), normalised per cluster
+    (sums in index order); zero outside each sample's cluster."""
+    total = np.zeros(M)
+    m = 0
+    for k in range(len(labels)):
+        if labels[k] >= 0:
+            total[labels[k]] += w[m]
+            m += 1
+    W = np.zeros((M, len(labels)))
+    m = 0
+    for k in range(len(labels)):
+        if labels[k] >= 0:
+            W[labels[k], k] = w[m] / total[labels[k]]
+            m += 1
+    return W
 
 
 @register("clustered")

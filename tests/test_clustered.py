@@ -1,66 +1,11 @@
-"""Algorithm 2: exact DBSCAN, the two-valley case, a controller facing a blocking cylinder."""
+"""Algorithm 2: the two-valley case, a controller facing a blocking cylinder."""
 
 import numpy as np
-import pytest
-from sklearn.cluster import DBSCAN
 
 import dcmppi
 from dcmppi.clustered import cluster_features, cluster_labels, cluster_updates
-from dcmppi.dbscan import dbscan
 from dcmppi.dynamics import rollout
 from dcmppi.mppi import mppi_update
-
-
-@pytest.mark.parametrize("seed", range(4))
-def test_dbscan_labels_identical_to_sklearn(seed):
-    rng = np.random.default_rng(seed)
-    for _ in range(60):
-        n, d = int(rng.integers(1, 300)), int(rng.integers(1, 5))
-        X = rng.standard_normal((n, d)) * rng.uniform(0.2, 3.0)
-        if rng.random() < 0.3:
-            X = np.round(X, 1)  # duplicates and ties on the band edge
-        eps, ms = rng.uniform(0.05, 1.0), int(rng.integers(1, 10))
-        expected = DBSCAN(eps=eps, min_samples=ms).fit(X).labels_
-        np.testing.assert_array_equal(dbscan(X, eps, ms), expected)
-
-
-@pytest.mark.parametrize("seed", range(3))
-def test_dbscan_levels_identical_to_sklearn(seed):
-    """Clustered MPPI's features: most points share the clipped cost exactly (1-D levels)."""
-    rng = np.random.default_rng(seed)
-    for _ in range(60):
-        n = int(rng.integers(1, 400))
-        X = rng.standard_normal((n, 2))
-        X[:, 1] = np.minimum(np.abs(X[:, 1]) * rng.uniform(1, 8), rng.uniform(0.2, 3.0))
-        if rng.random() < 0.3:
-            X = np.round(X, 1)  # several levels, duplicates, ties at eps
-        eps, ms = rng.uniform(0.05, 1.0), int(rng.integers(1, 10))
-        expected = DBSCAN(eps=eps, min_samples=ms).fit(X).labels_
-        np.testing.assert_array_equal(dbscan(X, eps, ms), expected)
-
-
-@pytest.mark.parametrize("seed", range(3))
-def test_dbscan_level_edge_cases_identical_to_sklearn(seed):
-    """The level path: sizes around MIN_LEVEL, large min_samples (wide windows), one level only,
-    integer grids (exact ties at eps), and free points just below the level."""
-    rng = np.random.default_rng(10 + seed)
-    for _ in range(80):
-        n = int(rng.integers(1, 120))
-        X = np.column_stack([rng.standard_normal(n), rng.uniform(0.0, 1.0, n)])
-        top = rng.uniform(0.5, 1.0)
-        X[rng.random(n) < rng.uniform(0.0, 1.0), 1] = top  # the level, possibly below MIN_LEVEL
-        X[:, 1] = np.minimum(X[:, 1], top)
-        kind = rng.integers(4)
-        if kind == 1:
-            X[:, 0] = rng.integers(-8, 8, n) * 0.1  # ties exactly at eps = 0.1 * k
-        elif kind == 2:
-            X[:, 1] = top  # everything on the level
-        elif kind == 3:
-            X[:, 1] = np.where(X[:, 1] < top, top - rng.uniform(0, 0.3, n), top)  # near the level
-        eps = float(rng.choice([0.1, 0.2, rng.uniform(0.05, 0.6)]))
-        ms = int(rng.integers(1, 30))
-        expected = DBSCAN(eps=eps, min_samples=ms).fit(X).labels_
-        np.testing.assert_array_equal(dbscan(X, eps, ms), expected)
 
 
 def two_valley(eps):

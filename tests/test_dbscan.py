@@ -1,0 +1,101 @@
+"""dcmppi.dbscan: labels identical to scikit-learn's DBSCAN, edge cases included."""
+
+import numpy as np
+import pytest
+from sklearn.cluster import DBSCAN
+
+from dcmppi.clustered import COST_CLIP, DBSCAN_EPS, DBSCAN_MIN_SAMPLES, cluster_features
+from dcmppi.dbscan import dbscan
+
+
+def assert_like_sklearn(X, eps, min_samples):
+    expected = DBSCAN(eps=eps, min_samples=min_samples).fit(X).labels_
+    np.testing.assert_array_equal(dbscan(X, eps, min_samples), expected)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_random_features(seed):
+    rng = np.random.default_rng(seed)
+    for _ in range(60):
+        n, d = int(rng.integers(1, 300)), int(rng.integers(1, 5))
+        X = rng.standard_normal((n, d)) * rng.uniform(0.2, 3.0)
+        if rng.random() < 0.3:
+            X = np.round(X, 1)  # duplicates and ties on the window edge
+        assert_like_sklearn(X, rng.uniform(0.05, 1.0), int(rng.integers(1, 10)))
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_levels(seed):
+    """Clustered MPPI's features: most points share the clipped cost exactly (1-D levels)."""
+    rng = np.random.default_rng(seed)
+    for _ in range(60):
+        n = int(rng.integers(1, 400))
+        X = rng.standard_normal((n, 2))
+        X[:, 1] = np.minimum(np.abs(X[:, 1]) * rng.uniform(1, 8), rng.uniform(0.2, 3.0))
+        if rng.random() < 0.3:
+            X = np.round(X, 1)  # several levels, duplicates, ties at eps
+        assert_like_sklearn(X, rng.uniform(0.05, 1.0), int(rng.integers(1, 10)))
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_level_edge_cases(seed):
+    """Small and full levels, large min_samples, grids with exact ties at eps, points just below
+    the level."""
+    rng = np.random.default_rng(10 + seed)
+    for _ in range(80):
+        n = int(rng.integers(1, 120))
+        X = np.column_stack([rng.standard_normal(n), rng.uniform(0.0, 1.0, n)])
+        top = rng.uniform(0.5, 1.0)
+        X[rng.random(n) < rng.uniform(0.0, 1.0), 1] = top
+        X[:, 1] = np.minimum(X[:, 1], top)
+        kind = rng.integers(4)
+        if kind == 1:
+            X[:, 0] = rng.integers(-8, 8, n) * 0.1  # ties exactly at eps = 0.1 * k
+        elif kind == 2:
+            X[:, 1] = top  # everything on the level
+        elif kind == 3:
+            X[:, 1] = np.where(X[:, 1] < top, top - rng.uniform(0, 0.3, n), top)
+        eps = float(rng.choice([0.1, 0.2, rng.uniform(0.05, 0.6)]))
+        assert_like_sklearn(X, eps, int(rng.integers(1, 30)))
+
+
+@pytest.mark.parametrize("eps", [0.1, 0.2, 0.3, 0.5, 1.0])
+def test_points_exactly_at_eps(eps):
+    """Grids of spacing eps (and of 3-4-5 triangles scaled by eps / 5): distances equal to eps
+    up to rounding, on both sides of it."""
+    rng = np.random.default_rng(int(eps * 10))
+    for _ in range(40):
+        n = int(rng.integers(2, 200))
+        step = eps if rng.random() < 0.5 else eps / 5
+        scale = np.array([1, 1]) if step == eps else np.array([3, 4])
+        X = rng.integers(-6, 6, (n, 2)) * scale * step
+        assert_like_sklearn(X, eps, int(rng.integers(1, 8)))
+
+
+def test_duplicates_all_noise_and_one_cluster():
+    rng = np.random.default_rng(5)
+    X = np.repeat(rng.standard_normal((20, 2)), 4, axis=0)  # every point four times
+    for ms in (1, 3, 4, 5, 8):
+        assert_like_sklearn(X, 0.05, ms)
+    far = np.column_stack([np.arange(50.0), np.zeros(50)])  # spacing 1 > eps: all noise
+    assert_like_sklearn(far, 0.5, 2)
+    assert (dbscan(far, 0.5, 2) == -1).all()
+    tight = rng.uniform(0, 0.1, (300, 2))  # everything within eps: one cluster
+    assert_like_sklearn(tight, 0.2, 5)
+    assert (dbscan(tight, 0.2, 5) == 0).all()
+    assert_like_sklearn(np.zeros((1, 2)), 0.2, 1)
+    assert dbscan(np.zeros((0, 2)), 0.2, 5).shape == (0,)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_controller_features(seed):
+    """Features as Clustered MPPI builds them: eps_k / sigma and costs clipped at COST_CLIP."""
+    rng = np.random.default_rng(20 + seed)
+    for _ in range(30):
+        K, sigma, lam = 500, rng.uniform(0.2, 1.0), rng.uniform(0.5, 5.0)
+        raw = rng.normal(0, sigma, K)
+        modes = rng.uniform(-2, 2, 3) * sigma
+        S = np.min((raw[:, None] - modes) ** 2, axis=1) * rng.uniform(10, 500)
+        S += 1e3 * (rng.random(K) < 0.2)  # collisions
+        X = cluster_features(raw[None, :], S, lam, sigma, COST_CLIP, raw)
+        assert_like_sklearn(X, DBSCAN_EPS, DBSCAN_MIN_SAMPLES)

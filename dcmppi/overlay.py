@@ -82,7 +82,7 @@ class Overlay:
         for k in np.linspace(0, K - 1, min(K, self.rollouts)).round().astype(int):
             chosen = d.labels is not None and d.chosen >= 0 and d.labels[k] == d.chosen
             rgba = (*rgb[k], 0.9 if chosen else 0.45)
-            add_polyline(scene, d.states[k, steps, :2], rgba, 0.03, 0.06)
+            add_polyline(scene, d.states[k, steps, :2], rgba, 1.5, 0.06, line=True)
 
     def _plan(self, scene, d) -> None:
         c = self.controller
@@ -95,4 +95,4 @@ class Overlay:
         steps = self._steps(n)
         for l in range(min(L, self.obstacles)):
             for p in np.linspace(0, P - 1, min(P, self.futures)).round().astype(int):
-                add_polyline(scene, samples[l, p, steps], FUTURE_RGBA, 0.05, 0.07)
+                add_polyline(scene, samples[l, p, steps], FUTURE_RGBA, 1.0, 0.07, line=True)

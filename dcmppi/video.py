@@ -105,7 +105,8 @@ class VideoWriter:
         if suffix == ".gif":
             codec = dict(codec="gif", pix_fmt_out="rgb8", quality=None)
         else:
-            codec = dict(codec="libx264", pix_fmt_out="yuv420p", quality=7)
+            codec = dict(codec="libx264", pix_fmt_out="yuv420p", quality=7,
+                         output_params=["-preset", "veryfast"])  # fmt: skip
         self.path, self.frames = path, 0
         self._writer = imageio_ffmpeg.write_frames(
             str(path), (width, height), fps=fps, macro_block_size=1, ffmpeg_log_level="error",

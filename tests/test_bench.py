@@ -135,7 +135,11 @@ def _count(db):
 def test_bench_resumes_after_kill_or_ctrl_c_without_loss_or_duplicates(tmp_path, sig):
     db = tmp_path / "r.db"
     n = 6
-    proc = subprocess.Popen(_bench_cmd(db, n), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    # cwd outside the checkout: `python -m` puts the cwd first on sys.path, and the source
+    # tree's dcmppi/ (without tasks/, mapped in only by the install) must not shadow it.
+    proc = subprocess.Popen(
+        _bench_cmd(db, n), cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE
+    )
     deadline = time.monotonic() + 120
     while _count(db) < 2 and time.monotonic() < deadline and proc.poll() is None:
         time.sleep(0.05)
@@ -145,7 +149,7 @@ def test_bench_resumes_after_kill_or_ctrl_c_without_loss_or_duplicates(tmp_path,
     assert 2 <= partial <= n
     if sig == signal.SIGINT and partial < n:
         assert proc.returncode == 130
-    subprocess.run(_bench_cmd(db, n), check=True, capture_output=True, timeout=300)
+    subprocess.run(_bench_cmd(db, n), cwd=tmp_path, check=True, capture_output=True, timeout=300)
     rows = ResultsDB(db).rows()
     assert sorted(r["env_index"] for r in rows) == list(range(n))  # none lost, none twice
     assert all(r["status"] == "ok" for r in rows)

@@ -7,8 +7,22 @@ Controllers are pure numpy + scikit-learn; the MuJoCo task suite is `dcmppi.task
     omega = ctrl.act(state, goal, static, moving, obstacle_model)
 """
 
-from . import clustered, dc, mppi, tube  # noqa: F401  (registers the controllers)
-from .controllers import Controller, Diagnostics, controller_names, make_controller
+from pathlib import Path
+
+# Installed, tasks/ and models/ are subpackages of dcmppi (pyproject maps them in). In a
+# source checkout they sit beside dcmppi/, so let the package also search the checkout's
+# root: `dcmppi.tasks` then imports from a checkout too (scripts, Ray workers, `python -m`
+# run from the repository root, where this dcmppi/ shadows the installed one).
+if not (Path(__file__).parent / "tasks").is_dir():
+    __path__.append(str(Path(__file__).parent.parent))  # noqa: F821 (the package's __path__)
+
+from . import clustered, dc, mppi, tube  # noqa: E402, F401  (registers the controllers)
+from .controllers import (  # noqa: E402
+    Controller,
+    Diagnostics,
+    controller_names,
+    make_controller,
+)
 
 __version__ = "0.1.0"
 

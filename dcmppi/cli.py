@@ -6,6 +6,8 @@ import argparse
 import json
 import sys
 
+from dcmppi.defaults import NOISE_PROFILES
+
 
 def _key_values(pairs: list[str], flag: str) -> dict:
     """Parse NAME=VALUE pairs; VALUE is read as JSON when it parses, else as a string."""
@@ -214,7 +216,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("run", help="run one episode and print its outcome")
     p.add_argument("--task", required=True)
     p.add_argument("--controller", required=True)
-    p.add_argument("--noise", default="none", choices=("none", "control", "process"))
+    p.add_argument("--noise", default="none", choices=NOISE_PROFILES)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument(
         "--param",
@@ -236,7 +238,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("compare", help="one episode under several controllers, side by side")
     p.add_argument("--task", required=True)
     p.add_argument("--controllers", default="mppi,clustered,dc")
-    p.add_argument("--noise", default="none", choices=("none", "control", "process"))
+    p.add_argument("--noise", default="none", choices=NOISE_PROFILES)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--param", action="append", metavar="NAME=VALUE")
     p.add_argument("--task-param", action="append", metavar="NAME=VALUE")

@@ -15,6 +15,9 @@ PHYSICS_TIMESTEP = 0.01  # MuJoCo timestep [s] -> 10 substeps per control step
 GOAL_TOLERANCE = 1.0  # goal reached within this distance [m]
 TIME_LIMIT_FACTOR = 3.0  # time limit = 3 x map perimeter / v (paper)
 
+# Noise profiles of the experiments (SPEC section 4).
+NOISE_PROFILES = ("none", "control", "process")
+
 # Maps (SPEC section 4).
 MAP_SIZE = (75.0, 50.0)  # [m], x in [0, 75], y in [0, 50]
 MIN_START_GOAL_DISTANCE = 30.0

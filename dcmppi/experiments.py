@@ -11,9 +11,8 @@ import dataclasses
 
 import numpy as np
 
+from dcmppi.defaults import NOISE_PROFILES
 from dcmppi.runner import EpisodeSpec
-
-NOISE_PROFILES = ("none", "control", "process")
 
 
 @dataclasses.dataclass(frozen=True)

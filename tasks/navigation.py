@@ -25,7 +25,6 @@ from dcmppi import defaults
 
 from . import worlds
 
-NOISE_PROFILES = ("none", "control", "process")
 PROCESS_VELOCITY_STD = 0.1  # [m/s] std of the planar velocity disturbance, per axis
 PROCESS_YAW_RATE_STD = 0.1  # [rad/s] std of the yaw-rate disturbance
 OBSTACLE_HALF_HEIGHT = 0.5  # [m]
@@ -323,8 +322,8 @@ class Navigation(base.Task):
         time_limit=None,
     ):
         """Args: see the class docstring; time_limit [s] defaults to the task's own."""
-        if noise not in NOISE_PROFILES:
-            raise ValueError(f"noise must be one of {NOISE_PROFILES}, got {noise!r}")
+        if noise not in defaults.NOISE_PROFILES:
+            raise ValueError(f"noise must be one of {defaults.NOISE_PROFILES}, got {noise!r}")
         self.v = check_positive("v", v)
         self.r_min = check_positive("r_min", r_min)
         self.robot_radius = check_positive("robot_radius", robot_radius)

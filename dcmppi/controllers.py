@@ -258,7 +258,7 @@ class Controller:
         x, y = states[:, 0], states[:, 1]
         J = goal_distance(x, y, self._goal)
         if not self._grid.empty and self.alpha:
-            J += self.alpha * np.count_nonzero(self._grid.lookup(x, y), axis=0)
+            J += self.alpha * self._grid.count(x, y)
         if len(self._tracks):
             J += self._track_weight * collision_counts(x, y, self._tracks, self._track_distance)
         return states, J

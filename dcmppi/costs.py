@@ -8,8 +8,12 @@ i = 0..N-1 and terminal cost phi = psi for x_N, Alg. 2):
              + beta sum_l sum_p theta 1[|p_i - o_l^p(t_i)| <= r + r_l], theta = 1/P   (DC-MPPI)
 
 Static cylinders go into an occupancy grid built once, so their cost is one lookup per state.
+The per-state sums over a batch of rollouts are numba loops: one pass over the (N + 1, K) states
+instead of a numpy call per operation (their per-call cost dominates for the few rollouts of
+Alg. 2's cluster controls). They add in step order, as numpy's reductions over the step axis do.
 """
 
+import numba
 import numpy as np
 
 RESOLUTION = 0.1  # occupancy-grid cell size [m]
@@ -88,15 +92,40 @@ class OccupancyGrid:
         i += j
         return self._flat.take(i)
 
+    def count(self, x, y):
+        """Occupied states of every rollout. x, y: (N + 1, R) coordinates [m]. Returns (R,) int."""
+        if self.empty:
+            return np.zeros(np.shape(x)[1], dtype=np.intp)
+        return _count_occupied(self._flat, self.shape[1], x, y, self.origin, self._limit,
+                               1.0 / self.resolution)  # fmt: skip
+
+
+@numba.njit(cache=True)
+def _count_occupied(flat, columns, x, y, origin, limit, inv):
+    """OccupancyGrid.lookup(x, y) summed over the steps (axis 0), in one pass."""
+    counts = np.zeros(x.shape[1], dtype=np.intp)
+    for i in range(x.shape[0]):
+        for k in range(x.shape[1]):
+            gi = int(min(max((x[i, k] - origin[0]) * inv, 0.0), limit[0]))
+            gj = int(min(max((y[i, k] - origin[1]) * inv, 0.0), limit[1]))
+            counts[k] += flat[gi * columns + gj]
+    return counts
+
 
 def goal_distance(x, y, goal):
     """Sum over steps of the distance to the goal. x, y: (N + 1, K). Returns (K,)."""
-    dx = x - goal[0]
-    dy = y - goal[1]
-    dx *= dx
-    dy *= dy
-    dx += dy
-    return np.sqrt(dx, out=dx).sum(axis=0)
+    return _goal_distance(x, y, float(goal[0]), float(goal[1]))
+
+
+@numba.njit(cache=True)
+def _goal_distance(x, y, gx, gy):
+    J = np.zeros(x.shape[1])
+    for i in range(x.shape[0]):
+        for k in range(x.shape[1]):
+            dx = x[i, k] - gx
+            dy = y[i, k] - gy
+            J[k] += np.sqrt(dx * dx + dy * dy)
+    return J
 
 
 def collision_counts(x, y, tracks, distance):

@@ -1,25 +1,28 @@
-"""DBSCAN with scikit-learn's exact labels, compiled with numba for the points of one step.
+"""DBSCAN with scikit-learn's exact labels, compiled with numba for the 2-D points of one step.
 
 `sklearn.cluster.DBSCAN(eps, min_samples).fit(X).labels_` takes about 2.5 ms for K = 500 points
 (input validation, a tree, Python lists of neighbourhoods), more than a whole MPPI step. This
-module returns the same labels in a few tens of microseconds, following sklearn's conventions:
-- neighbours: points at squared Euclidean distance sum_d (x_d - y_d)^2 <= eps^2 (float64, summed
-  over the features in order, as sklearn's KD-tree tests them; self included);
+module returns the same labels for two features (Clustered MPPI's) in a few tens of
+microseconds, following sklearn's conventions:
+- neighbours: points at squared Euclidean distance (x_0 - y_0)^2 + (x_1 - y_1)^2 <= eps^2
+  (float64, summed over the features in order, as sklearn's KD-tree tests them; self included);
 - core points: at least `min_samples` neighbours;
 - labels: sklearn's `dbscan_inner` (sklearn/cluster/_dbscan_inner.pyx): points in index order,
   each unlabelled core point starts a new cluster that a depth-first search extends over its core
   neighbours and labels their non-core neighbours with; the rest is noise, -1.
 
-Neighbourhoods come from sorting on the first feature: the neighbours after sorted position i
-lie within the window of followers whose first-feature gap g has g * g <= eps^2 (a larger gap
-makes the whole squared distance larger), so a pass over those windows finds every pair once.
+Neighbourhoods come from sorting on the first feature: the neighbours of sorted point p lie
+within the window of points whose first-feature gap g has g * g <= eps^2 (a larger gap makes the
+whole squared distance larger). Three passes over the windows: neighbour counts, components of
+the core points (union-find), labels of the non-core points.
 
 sklearn tests distances this way in its KD-tree, which its NearestNeighbors picks for at most
 15 features and n // 2 > 5 points (5: the default n_neighbors). Otherwise (brute force) it
 computes distances as |x|^2 - 2 x.y + |y|^2 with BLAS, which rounds differently at eps, so
-those inputs (tiny n, or the N + 1 features of time-varying perturbations) go to sklearn itself.
+those inputs (tiny n), and other numbers of features (the N + 1 of time-varying perturbations),
+go to sklearn itself.
 
-The kernels compile at the first call (about a second) and are cached on disk by numba
+The kernels compile at the first call (a few seconds) and are cached on disk by numba
 (`cache=True`: __pycache__ next to this file, or NUMBA_CACHE_DIR), so later processes load them.
 tests/test_dbscan.py checks the labels against sklearn on many random inputs.
 """
@@ -28,8 +31,7 @@ import numba
 import numpy as np
 from sklearn.cluster import DBSCAN
 
-KD_TREE_MAX_FEATURES = 15  # sklearn.neighbors: more features, or n // 2 <= 5, use brute force
-KD_TREE_MIN_SAMPLES = 12
+KD_TREE_MIN_SAMPLES = 12  # sklearn.neighbors: n // 2 <= 5 points use brute force
 
 
 def dbscan(X, eps, min_samples):
@@ -45,68 +47,74 @@ def dbscan(X, eps, min_samples):
     n, d = np.shape(X)
     if n == 0:
         return np.full(0, -1, dtype=np.intp)
-    if n < KD_TREE_MIN_SAMPLES or d > KD_TREE_MAX_FEATURES:  # sklearn's brute-force distances
+    if n < KD_TREE_MIN_SAMPLES or d != 2:
         return DBSCAN(eps=eps, min_samples=min_samples).fit(X).labels_.astype(np.intp)
-    columns = np.ascontiguousarray(np.asarray(X, dtype=np.float64).T)  # (d, n), no copy for F
-    return _dbscan(columns, float(eps) * float(eps), int(min_samples))
+    X = np.asarray(X, dtype=np.float64)
+    order = np.argsort(X[:, 0])  # numpy's sort: several times faster than numba's
+    x, y = X[:, 0].take(order), X[:, 1].take(order)
+    return _dbscan(x, y, order, float(eps) * float(eps), int(min_samples))
 
 
 @numba.njit(cache=True)
-def _dbscan(columns, eps2, min_samples):
-    """Labels (n,) of the n points whose (d, n) C-contiguous coordinates are `columns`."""
-    n = columns.shape[1]
-    order = np.argsort(columns[0], kind="mergesort")
-    xs = np.empty((n, columns.shape[0]))  # sorted points, one row each
-    for p in range(n):
-        xs[p] = columns[:, order[p]]
-    u, v, count = _pairs(xs, order, eps2)
-    core = count >= min_samples
-    root = _components(core, u, v)
-    return _labels(core, root, u, v)
+def _dbscan(x, y, order, eps2, min_samples):
+    """Labels (n,) by original index of 2-D points (x, y) sorted by x, (x[p], y[p]) =
+    X[order[p]]. The labels do not depend on how ties in x are ordered."""
+    start, end = _windows(x, eps2)
+    core = _neighbour_counts(x, y, start, end, eps2) >= min_samples
+    root = _components(x, y, end, eps2, core)
+    return _labels(x, y, start, end, eps2, core, root, order)
 
 
 @numba.njit(cache=True)
-def _pairs(xs, order, eps2):
-    """Neighbour pairs among the (n, d) points xs sorted by their first feature.
-
-    Args:
-      xs: (n, d) sorted points. order: (n,) their original indices.
-    Returns:
-      u, v: (pairs,) original indices of each pair (once, self excluded);
-      count: (n,) neighbours of each original index, self included.
-    """
-    n, d = xs.shape
-    # Windows [p + 1, end[p]) of followers whose first-feature gap alone is within eps.
+def _windows(x, eps2):
+    """The candidate neighbours of sorted point p: positions [start[p], end[p]) (p included),
+    the points whose gap in x alone is within eps. (x_p - x_s)^2 <= eps2 is symmetric and
+    monotone in the gap, so start[p] is the first s whose window reaches p."""
+    n = len(x)
     end = np.empty(n, dtype=np.intp)
     q = 0
     for p in range(n):
         q = max(q, p + 1)
-        while q < n and (xs[q, 0] - xs[p, 0]) * (xs[q, 0] - xs[p, 0]) <= eps2:
+        while q < n and (x[q] - x[p]) * (x[q] - x[p]) <= eps2:
             q += 1
         end[p] = q
-    candidates = 0
+    start = np.empty(n, dtype=np.intp)
+    s = 0
     for p in range(n):
-        candidates += end[p] - p - 1
-    u = np.empty(candidates, dtype=np.intp)
-    v = np.empty(candidates, dtype=np.intp)
-    count = np.ones(n, dtype=np.intp)
-    m = 0
-    for p in range(n):
-        for q in range(p + 1, end[p]):
-            dist2 = 0.0
-            for k in range(d):
-                diff = xs[p, k] - xs[q, k]
-                dist2 += diff * diff
-            if dist2 <= eps2:
-                u[m] = order[p]
-                v[m] = order[q]
-                count[order[p]] += 1
-                count[order[q]] += 1
-                m += 1
-    return u[:m], v[:m], count
+        while end[s] <= p:
+            s += 1
+        start[p] = s
+    return start, end
+
+
+# The loops over windows below index slices from 0 (numba then knows the index is not negative
+# and vectorises the loop) and add or compare flags instead of branching on them: the pairs come
+# in no predictable pattern, and mispredicted branches cost more than the arithmetic.
+
+
+@numba.njit(inline="always")
+def _near(xp, yp, x, y, i, eps2):
+    """(xp - x_i)^2 + (yp - y_i)^2 <= eps^2, summed in feature order as sklearn does."""
+    dx = xp - x[i]
+    dy = yp - y[i]
+    return dx * dx + dy * dy <= eps2
 
 
 @numba.njit(cache=True)
+def _neighbour_counts(x, y, start, end, eps2):
+    """(n,) neighbours of every sorted point, self included."""
+    n = len(x)
+    count = np.empty(n, dtype=np.intp)
+    for p in range(n):
+        xw, yw = x[start[p] : end[p]], y[start[p] : end[p]]
+        c = 0
+        for i in range(len(xw)):
+            c += _near(x[p], y[p], xw, yw, i, eps2)
+        count[p] = c
+    return count
+
+
+@numba.njit(inline="always")
 def _find(parent, i):
     """Root of i in the union-find forest `parent`, halving the path on the way."""
     while parent[i] != i:
@@ -116,48 +124,71 @@ def _find(parent, i):
 
 
 @numba.njit(cache=True)
-def _components(core, u, v):
-    """Connected components of the core points over the pairs (u, v): (n,) roots, each the
-    lowest index of its component (a union always keeps the lower root)."""
-    parent = np.arange(len(core))
-    for m in range(len(u)):
-        if core[u[m]] and core[v[m]] and parent[u[m]] != parent[v[m]]:
-            ru, rv = _find(parent, u[m]), _find(parent, v[m])
-            if ru < rv:
-                parent[rv] = ru
-            elif rv < ru:
-                parent[ru] = rv
-    for i in range(len(core)):
-        parent[i] = _find(parent, i)
+def _components(x, y, end, eps2, core):
+    """(n,) root of every sorted point: connected components of the core points (neighbour
+    pairs of two core points join; the lower root stays), other points are their own root."""
+    n = len(x)
+    parent = np.arange(n)
+    joined = np.empty(n, dtype=np.intp)  # window offsets of p's core neighbours after p
+    for p in range(n):
+        if not core[p]:
+            continue
+        rp = _find(parent, p)
+        lo = p + 1
+        xw, yw, cw = x[lo : end[p]], y[lo : end[p]], core[lo : end[p]]
+        m = 0
+        for i in range(len(xw)):
+            joined[m] = i
+            m += _near(x[p], y[p], xw, yw, i, eps2) & cw[i]
+        for j in range(m):
+            q = lo + joined[j]
+            if parent[q] == rp:
+                continue
+            rq = _find(parent, q)
+            if rq < rp:
+                parent[rp] = rq
+                rp = rq
+            elif rq > rp:
+                parent[rq] = rp
+    for p in range(n):
+        parent[p] = _find(parent, p)
     return parent
 
 
 @numba.njit(cache=True)
-def _labels(core, root, u, v):
+def _labels(x, y, start, end, eps2, core, root, order):
     """sklearn's dbscan_inner labels from the components, without its depth-first search.
 
-    dbscan_inner scans the points in index order and labels a whole component (its core points
-    and every unlabelled neighbour of them) when it meets the component's first core point. So
-    clusters are numbered by their lowest core index (`root`), and a non-core point takes the
-    lowest-numbered cluster among its core neighbours (the first that reached it), else -1.
+    dbscan_inner scans the points in original index order and labels a whole component (its core
+    points and every unlabelled neighbour of them) when it meets the component's first core
+    point. So clusters are numbered in the order of their lowest original core index, and a
+    non-core point takes the lowest-numbered cluster among its core neighbours (the first that
+    reached it), else -1. Returns labels by original index.
     """
-    n = len(core)
-    labels = np.full(n, n, dtype=np.intp)  # n: not (yet) in a cluster
+    n = len(x)
+    first = np.full(n, n)  # per root: the lowest original index of its component's core points
+    for p in range(n):
+        if core[p]:
+            first[root[p]] = min(first[root[p]], order[p])
+    number = np.full(n, -1)  # per original index: the number of the cluster it starts
+    for p in range(n):
+        if core[p] and root[p] == p:
+            number[first[p]] = 0
     clusters = 0
     for i in range(n):
-        if core[i]:
-            if root[i] == i:
-                labels[i] = clusters
-                clusters += 1
-            else:
-                labels[i] = labels[root[i]]  # root[i] < i: labelled already
-    for m in range(len(u)):
-        a, b = u[m], v[m]
-        if core[a] and not core[b]:
-            labels[b] = min(labels[b], labels[a])
-        elif core[b] and not core[a]:
-            labels[a] = min(labels[a], labels[b])
-    for i in range(n):
-        if labels[i] == n:
-            labels[i] = -1
+        if number[i] == 0:
+            number[i] = clusters
+            clusters += 1
+    label = np.full(n, n)  # per sorted point: its cluster number if core, else n
+    for p in range(n):
+        if core[p]:
+            label[p] = number[first[root[p]]]
+    labels = np.empty(n, dtype=np.intp)
+    for p in range(n):
+        least = label[p]
+        if not core[p]:  # the least label of its core neighbours
+            xw, yw, lw = x[start[p] : end[p]], y[start[p] : end[p]], label[start[p] : end[p]]
+            for i in range(len(xw)):
+                least = min(least, lw[i] if _near(x[p], y[p], xw, yw, i, eps2) else n)
+        labels[order[p]] = least if least < n else -1
     return labels

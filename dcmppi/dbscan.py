@@ -69,7 +69,8 @@ def _dbscan(x, y, order, eps2, min_samples):
 def _windows(x, eps2):
     """The candidate neighbours of sorted point p: positions [start[p], end[p]) (p included),
     the points whose gap in x alone is within eps. (x_p - x_s)^2 <= eps2 is symmetric and
-    monotone in the gap, so start[p] is the first s whose window reaches p."""
+    monotone in the gap, so start[p] is the first s whose window reaches p: the number of
+    windows that end at or before p."""
     n = len(x)
     end = np.empty(n, dtype=np.intp)
     q = 0
@@ -78,13 +79,12 @@ def _windows(x, eps2):
         while q < n and (x[q] - x[p]) * (x[q] - x[p]) <= eps2:
             q += 1
         end[p] = q
-    start = np.empty(n, dtype=np.intp)
-    s = 0
+    start = np.zeros(n + 1, dtype=np.intp)  # start[p] = #{s: end[s] <= p}, without branches
+    for s in range(n):
+        start[end[s]] += 1
     for p in range(n):
-        while end[s] <= p:
-            s += 1
-        start[p] = s
-    return start, end
+        start[p + 1] += start[p]
+    return start[:n], end
 
 
 # The loops over windows below index slices from 0 (numba then knows the index is not negative
@@ -126,30 +126,33 @@ def _find(parent, i):
 @numba.njit(cache=True)
 def _components(x, y, end, eps2, core):
     """(n,) root of every sorted point: connected components of the core points (neighbour
-    pairs of two core points join; the lower root stays), other points are their own root."""
+    pairs of two core points join; the lower root stays), other points are their own root.
+
+    Sweeping in x order, most core neighbours after p already point at p's root (an earlier point
+    joined them), so a vectorised pass first counts those that do not; only then a second pass
+    joins them.
+    """
     n = len(x)
     parent = np.arange(n)
-    joined = np.empty(n, dtype=np.intp)  # window offsets of p's core neighbours after p
     for p in range(n):
         if not core[p]:
             continue
         rp = _find(parent, p)
         lo = p + 1
-        xw, yw, cw = x[lo : end[p]], y[lo : end[p]], core[lo : end[p]]
+        xw, yw, cw, pw = x[lo : end[p]], y[lo : end[p]], core[lo : end[p]], parent[lo : end[p]]
         m = 0
         for i in range(len(xw)):
-            joined[m] = i
-            m += _near(x[p], y[p], xw, yw, i, eps2) & cw[i]
-        for j in range(m):
-            q = lo + joined[j]
-            if parent[q] == rp:
-                continue
-            rq = _find(parent, q)
-            if rq < rp:
-                parent[rp] = rq
-                rp = rq
-            elif rq > rp:
-                parent[rq] = rp
+            m += _near(x[p], y[p], xw, yw, i, eps2) & cw[i] & (pw[i] != rp)
+        if m == 0:
+            continue
+        for i in range(len(xw)):
+            if cw[i] and pw[i] != rp and _near(x[p], y[p], xw, yw, i, eps2):
+                rq = _find(parent, lo + i)
+                if rq < rp:
+                    parent[rp] = rq
+                    rp = rq
+                elif rq > rp:
+                    parent[rq] = rp
     for p in range(n):
         parent[p] = _find(parent, p)
     return parent

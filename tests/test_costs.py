@@ -50,3 +50,14 @@ def test_collision_counts_equal_brute_force():
                 )
     assert brute.sum() > 0
     np.testing.assert_array_equal(collision_counts(x, y, tracks, dist), brute)
+
+
+def test_grid_count_is_lookup_summed_over_steps():
+    rng = np.random.default_rng(4)
+    static = np.column_stack([rng.uniform(0, 20, (30, 2)), rng.uniform(0.2, 1.5, 30)])
+    grid = OccupancyGrid(static, 0.5)
+    x, y = rng.uniform(-5, 25, (2, 11, 40))  # inside and outside the grid
+    counts = grid.count(x, y)
+    np.testing.assert_array_equal(counts, grid.lookup(x, y).sum(axis=0))
+    assert 0 < counts.sum() < x.size
+    np.testing.assert_array_equal(OccupancyGrid(None, 0.5).count(x, y), np.zeros(40))

@@ -10,7 +10,7 @@ i = 0..N-1 and terminal cost phi = psi for x_N, Alg. 2):
 Static cylinders go into an occupancy grid built once, so their cost is one lookup per state.
 The per-state sums over a batch of rollouts are numba loops: one pass over the (N + 1, K) states
 instead of a numpy call per operation (their per-call cost dominates for the few rollouts of
-Alg. 2's cluster controls). They add in step order, as numpy's reductions over the step axis do.
+Alg. 2's cluster controls), adding in step order.
 """
 
 import numba
@@ -72,8 +72,8 @@ class OccupancyGrid:
             ny = np.clip(cy, ys, ys + resolution) - cy
             grid[i0 : i1 + 1, j0 : j1 + 1] |= nx[:, None] ** 2 + ny[None, :] ** 2 <= r * r
         self.grid = grid
-        self._flat = grid.ravel()
-        self._limit = np.array(self.shape, dtype=float) - 1.0
+        limit = np.array(self.shape, dtype=float) - 1.0  # last cell index along x and y
+        self._cells = (grid.ravel(), self.shape[1], self.origin, limit, 1.0 / resolution)
 
     def matches(self, static):
         """True when `static` is the array this grid was built from (cheap equality)."""
@@ -83,32 +83,38 @@ class OccupancyGrid:
 
     def lookup(self, x, y):
         """Occupancy at points. x, y: (...) coordinates [m]. Returns (...) bool."""
-        if self.empty:
-            return np.zeros(np.shape(x), dtype=bool)
-        inv = 1.0 / self.resolution
-        i = np.clip((x - self.origin[0]) * inv, 0.0, self._limit[0]).astype(np.intp)
-        j = np.clip((y - self.origin[1]) * inv, 0.0, self._limit[1]).astype(np.intp)
-        i *= self.shape[1]
-        i += j
-        return self._flat.take(i)
+        x, y = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+        return _occupied_points(*self._cells, x.ravel(), y.ravel()).reshape(x.shape)
 
     def count(self, x, y):
         """Occupied states of every rollout. x, y: (N + 1, R) coordinates [m]. Returns (R,) int."""
-        if self.empty:
-            return np.zeros(np.shape(x)[1], dtype=np.intp)
-        return _count_occupied(self._flat, self.shape[1], x, y, self.origin, self._limit,
-                               1.0 / self.resolution)  # fmt: skip
+        return _occupied_steps(*self._cells, x, y)
+
+
+@numba.njit(inline="always")
+def _occupied(flat, columns, origin, limit, inv, x, y):
+    """Whether the cell of point (x, y) is occupied; points outside fall on the free border."""
+    i = int(min(max((x - origin[0]) * inv, 0.0), limit[0]))
+    j = int(min(max((y - origin[1]) * inv, 0.0), limit[1]))
+    return flat[i * columns + j]
 
 
 @numba.njit(cache=True)
-def _count_occupied(flat, columns, x, y, origin, limit, inv):
-    """OccupancyGrid.lookup(x, y) summed over the steps (axis 0), in one pass."""
+def _occupied_points(flat, columns, origin, limit, inv, x, y):
+    """_occupied at every point of x, y (n,). Returns (n,) bool."""
+    out = np.empty(len(x), dtype=np.bool_)
+    for k in range(len(x)):
+        out[k] = _occupied(flat, columns, origin, limit, inv, x[k], y[k])
+    return out
+
+
+@numba.njit(cache=True)
+def _occupied_steps(flat, columns, origin, limit, inv, x, y):
+    """Occupied states summed over the steps. x, y: (N + 1, R). Returns (R,) int."""
     counts = np.zeros(x.shape[1], dtype=np.intp)
     for i in range(x.shape[0]):
         for k in range(x.shape[1]):
-            gi = int(min(max((x[i, k] - origin[0]) * inv, 0.0), limit[0]))
-            gj = int(min(max((y[i, k] - origin[1]) * inv, 0.0), limit[1]))
-            counts[k] += flat[gi * columns + gj]
+            counts[k] += _occupied(flat, columns, origin, limit, inv, x[i, k], y[i, k])
     return counts
 
 

@@ -29,9 +29,15 @@ def sinc(a):
     """sin(a) / a, elementwise, exact at 0."""
     a = np.asarray(a, dtype=float)
     if a.size and np.max(np.abs(a)) < _SINC_SERIES_MAX:
-        a2 = a * a
-        return 1.0 + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 - a2 / 5040.0))
+        return _sinc_series(a)
     return np.sinc(a / np.pi)
+
+
+@numba.njit(cache=True)
+def _sinc_series(a):
+    """sinc's Taylor series to a^6 (one pass, for arrays or scalars)."""
+    a2 = a * a
+    return 1.0 + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 - a2 / 5040.0))
 
 
 def dubins_step(state, omega, v, dt):
@@ -76,33 +82,19 @@ def rollout_time_major(x0, omega, v, dt, starts=1):
     out = np.empty((n + 1, 3, starts, k))
     out[0] = x0.reshape(3, starts, -1) if starts > 1 else x0.reshape(3, 1, -1)
     out[0, 2] = wrap_angle(out[0, 2])
-    a, step, mid = _headings(out, omega, 0.5 * dt, v * dt)
-    if step is None:  # turns too sharp for sinc's series
-        step = (v * dt) * sinc(a)
+    a, mid = _headings(out, omega, 0.5 * dt)
+    step = (v * dt) * sinc(a)
     _positions(out, step, np.cos(mid), np.sin(mid))
     return out.reshape(n + 1, 3, starts * k)
 
 
 @numba.njit(cache=True)
-def _headings(out, omega, half_dt, v_dt):
+def _headings(out, omega, half_dt):
     """Half heading increments a = omega dt / 2 (n, K); theta_{i+1} = theta_i + 2 a_i into
-    out[:, 2] (from out[0, 2]); chords v dt sinc(a) (n, K), or None when some |a| is too large
-    for sinc's series; mid-period headings float32(theta_i + a_i) (n, S, K).
+    out[:, 2] (from out[0, 2]); mid-period headings float32(theta_i + a_i) (n, S, K).
     out: (n + 1, 3, S, K); omega: (n, K)."""
     n, starts, k = omega.shape[0], out.shape[2], out.shape[3]
-    a = np.empty((n, k))
-    largest = 0.0
-    for i in range(n):
-        for j in range(k):
-            a[i, j] = omega[i, j] * half_dt
-            largest = max(largest, abs(a[i, j]))
-    step = None
-    if largest < _SINC_SERIES_MAX:  # sinc(a) as sinc() computes it
-        step = np.empty((n, k))
-        for i in range(n):
-            for j in range(k):
-                a2 = a[i, j] * a[i, j]
-                step[i, j] = v_dt * (1.0 + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 - a2 / 5040.0)))
+    a = omega * half_dt
     mid = np.empty((n, starts, k), dtype=np.float32)
     for i in range(n):
         for s in range(starts):
@@ -110,7 +102,7 @@ def _headings(out, omega, half_dt, v_dt):
                 theta = out[i, 2, s, j]
                 mid[i, s, j] = np.float32(theta + a[i, j])
                 out[i + 1, 2, s, j] = theta + (a[i, j] + a[i, j])
-    return a, step, mid
+    return a, mid
 
 
 @numba.njit(cache=True)

@@ -13,7 +13,7 @@ cluster; with no cluster at all the step falls back to Alg. 1 over all samples. 
 control sequence is rolled out without noise and the one with the least cost J is applied.
 Labels from dcmppi.dbscan: sklearn's labels, compiled with numba for two features (~50x faster),
 sklearn itself for the N + 1 features of time-varying perturbations. The per-cluster weights
-are numba loops too (numpy's exp and matrix product keep the values of the numpy version).
+and updates are numba loops too (one pass over the clustered samples).
 """
 
 import numba
@@ -36,14 +36,21 @@ def cluster_features(eps, S, lambda_, sigma, cost_clip=COST_CLIP, raw=None):
       sigma: perturbation standard deviation. raw: (K,) scalar constant perturbations, if any.
     """
     if raw is not None:
-        features = np.empty((2, len(S)))  # returned transposed: contiguous columns for dbscan
-        np.divide(raw, sigma, out=features[0])
-        np.subtract(S, S.min(), out=features[1])
-        features[1] /= lambda_
-        np.minimum(features[1], cost_clip, out=features[1])
-        return features.T
+        return _constant_features(raw, S, sigma, lambda_, cost_clip).T
     cost = np.minimum((S - S.min()) / lambda_, cost_clip)
     return np.column_stack([eps.T / (sigma * np.sqrt(len(eps))), cost])
+
+
+@numba.njit(cache=True)
+def _constant_features(raw, S, sigma, lambda_, cost_clip):
+    """(2, K) rows raw / sigma and min((S - min S) / lambda, cost_clip) (contiguous rows: the
+    columns of the (K, 2) features that dbscan reads)."""
+    features = np.empty((2, len(S)))
+    least = S.min()
+    for k in range(len(S)):
+        features[0, k] = raw[k] / sigma
+        features[1, k] = min((S[k] - least) / lambda_, cost_clip)
+    return features
 
 
 def cluster_labels(features, dbscan_eps=DBSCAN_EPS, min_samples=DBSCAN_MIN_SAMPLES):
@@ -57,53 +64,54 @@ def cluster_updates(U0, eps, S, lambda_, labels):
     Args:
       U0: (N,). eps: (N, K). S: (K,). labels: (K,) with M clusters 0..M-1 and noise -1.
     Returns:
-      U: (M, N) control sequence per cluster; W: (M, K) weights (each row sums to 1).
+      U: (M, N) control sequence per cluster; w: (K,) each sample's weight within its own
+      cluster (each cluster's weights sum to 1; noise points 0).
     """
     M = int(labels.max()) + 1 if len(labels) else 0
-    exponent = _cluster_exponents(S, labels, M, lambda_)
-    np.exp(exponent, out=exponent)  # numpy's exp: the same values as Alg. 1's weights
-    W = _cluster_weights(exponent, labels, M)
-    U = W @ eps.T
-    U += U0
-    return U, W
+    w = _cluster_exponents(S, labels, M, lambda_)
+    np.exp(w, out=w)  # numpy's vectorised exp: several times faster than numba's scalar one
+    return _cluster_sums(U0, eps, w, labels, M), w
 
 
 @numba.njit(cache=True)
 def _cluster_exponents(S, labels, M, lambda_):
-    """(rho_c - S_k) / lambda for the clustered samples k in index order, rho_c: the least cost
-    of k's cluster c. Returns (members,)."""
+    """(K,) (rho_c - S_k) / lambda for the clustered samples k, rho_c: the least cost of k's
+    cluster c; -inf for noise points (their exp is 0)."""
     rho = np.full(M, np.inf)
-    members = 0
     for k in range(len(S)):
         if labels[k] >= 0:
             rho[labels[k]] = min(rho[labels[k]], S[k])
-            members += 1
-    exponent = np.empty(members)
-    m = 0
+    exponent = np.full(len(S), -np.inf)
     for k in range(len(S)):
         if labels[k] >= 0:
-            exponent[m] = (rho[labels[k]] - S[k]) / lambda_
-            m += 1
+            exponent[k] = (rho[labels[k]] - S[k]) / lambda_
     return exponent
 
 
 @numba.njit(cache=True)
-def _cluster_weights(w, labels, M):
-    """(M, K) weights: the clustered samples' exp terms w (members,), normalised per cluster
-    (sums in index order); zero outside each sample's cluster."""
-    total = np.zeros(M)
-    m = 0
-    for k in range(len(labels)):
+def _cluster_sums(U0, eps, w, labels, M):
+    """Normalises the exp terms w (K,) per cluster in place (sums in index order) and returns
+    U (M, N) = U0 + sum_k w_k eps_k over each cluster's samples.
+
+    Every sample belongs to at most one cluster, so U costs one multiply-add per clustered sample
+    and step (a dense (M, K) x (K, N) product would spend M times that on zero weights).
+    """
+    N, K = eps.shape
+    eta = np.zeros(M)
+    for k in range(K):
         if labels[k] >= 0:
-            total[labels[k]] += w[m]
-            m += 1
-    W = np.zeros((M, len(labels)))
-    m = 0
-    for k in range(len(labels)):
-        if labels[k] >= 0:
-            W[labels[k], k] = w[m] / total[labels[k]]
-            m += 1
-    return W
+            eta[labels[k]] += w[k]
+    U = np.zeros((M, N))
+    for k in range(K):
+        c = labels[k]
+        if c >= 0:
+            w[k] /= eta[c]
+            for i in range(N):
+                U[c, i] += w[k] * eps[i, k]
+    for c in range(M):
+        for i in range(N):
+            U[c, i] += U0[i]
+    return U
 
 
 @register("clustered")
@@ -140,10 +148,10 @@ class ClusteredMPPI(MPPI):
             plan, w = mppi_update(self.U, eps, S, self.lambda_)
             d.chosen, d.cluster_controls, d.cluster_costs = -1, np.zeros((0, self.N)), np.zeros(0)
         else:
-            U, W = cluster_updates(self.U, eps, S, self.lambda_, labels)
+            U, w = cluster_updates(self.U, eps, S, self.lambda_, labels)
             _, Jm = self.evaluate(state, U.T)
             best = int(np.argmin(Jm))
-            plan, w = U[best], W[best]
+            plan, w = U[best], np.where(labels == best, w, 0.0)
             d.chosen, d.cluster_controls, d.cluster_costs = best, U, Jm
         d.weights, d.ess = w, effective_sample_size(w)
         return self.finish(plan)

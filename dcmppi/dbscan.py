@@ -128,9 +128,10 @@ def _components(x, y, end, eps2, core):
     """(n,) root of every sorted point: connected components of the core points (neighbour
     pairs of two core points join; the lower root stays), other points are their own root.
 
-    Sweeping in x order, most core neighbours after p already point at p's root (an earlier point
-    joined them), so a vectorised pass first counts those that do not; only then a second pass
-    joins them.
+    Sweeping in x order, core point p joins the core neighbours q > p in its window. A q that
+    is still a singleton (parent[q] == q: no earlier point reached it) simply takes p's root, in
+    the same vectorised pass that counts the neighbours already joined to another node; only
+    those (two trees meeting, rare) need a second pass with finds and unions.
     """
     n = len(x)
     parent = np.arange(n)
@@ -142,7 +143,10 @@ def _components(x, y, end, eps2, core):
         xw, yw, cw, pw = x[lo : end[p]], y[lo : end[p]], core[lo : end[p]], parent[lo : end[p]]
         m = 0
         for i in range(len(xw)):
-            m += _near(x[p], y[p], xw, yw, i, eps2) & cw[i] & (pw[i] != rp)
+            join = _near(x[p], y[p], xw, yw, i, eps2) & cw[i]
+            single = pw[i] == lo + i
+            m += join & (not single) & (pw[i] != rp)
+            pw[i] = rp if join & single else pw[i]
         if m == 0:
             continue
         for i in range(len(xw)):

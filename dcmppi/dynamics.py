@@ -78,22 +78,26 @@ def rollout_time_major(x0, omega, v, dt, starts=1):
       columns s K .. (s + 1) K - 1 start from x0[:, s].
     """
     n, k = omega.shape
-    x0 = np.asarray(x0, dtype=float)
     out = np.empty((n + 1, 3, starts, k))
-    out[0] = x0.reshape(3, starts, -1) if starts > 1 else x0.reshape(3, 1, -1)
-    out[0, 2] = wrap_angle(out[0, 2])
-    a, mid = _headings(out, omega, 0.5 * dt)
-    step = (v * dt) * sinc(a)
+    out[0] = np.reshape(x0, (3, starts, -1))
+    a, mid, step = _arcs(out, omega, 0.5 * dt, v * dt)
+    if step is None:  # a sharp turn: sinc beyond its series
+        step = (v * dt) * np.sinc(a / np.pi)
     _positions(out, step, np.cos(mid), np.sin(mid))
     return out.reshape(n + 1, 3, starts * k)
 
 
 @numba.njit(cache=True)
-def _headings(out, omega, half_dt):
-    """Half heading increments a = omega dt / 2 (n, K); theta_{i+1} = theta_i + 2 a_i into
-    out[:, 2] (from out[0, 2]); mid-period headings float32(theta_i + a_i) (n, S, K).
-    out: (n + 1, 3, S, K); omega: (n, K)."""
+def _arcs(out, omega, half_dt, vdt):
+    """The arcs of every period: wraps the start headings out[0, 2] to [-pi, pi) and writes
+    theta_{i+1} = theta_i + 2 a_i into out[:, 2].
+    out: (n + 1, 3, S, K); omega: (n, K).
+    Returns a = omega dt / 2 (n, K), the mid-period headings float32(theta_i + a_i) (n, S, K),
+    and the chords v dt sinc(a) (n, K), or None when some |a| is beyond sinc's series."""
     n, starts, k = omega.shape[0], out.shape[2], out.shape[3]
+    for s in range(starts):
+        for j in range(k):
+            out[0, 2, s, j] = (out[0, 2, s, j] + np.pi) % (2.0 * np.pi) - np.pi
     a = omega * half_dt
     mid = np.empty((n, starts, k), dtype=np.float32)
     for i in range(n):
@@ -102,7 +106,9 @@ def _headings(out, omega, half_dt):
                 theta = out[i, 2, s, j]
                 mid[i, s, j] = np.float32(theta + a[i, j])
                 out[i + 1, 2, s, j] = theta + (a[i, j] + a[i, j])
-    return a, mid
+    if a.size and np.abs(a).max() >= _SINC_SERIES_MAX:
+        return a, mid, None
+    return a, mid, vdt * _sinc_series(a)
 
 
 @numba.njit(cache=True)

@@ -22,8 +22,8 @@ def test_two_valley_mppi_on_ridge_clustered_in_a_mode():
     U, _ = mppi_update(np.zeros(1), eps, S, lam)
     assert abs(U[0]) < 0.25  # the weighted average lands on the ridge
     labels = cluster_labels(cluster_features(eps, S, lam, sigma, raw=raw))
-    Uc, W = cluster_updates(np.zeros(1), eps, S, lam, labels)
-    np.testing.assert_allclose(W.sum(axis=1), 1.0)
+    Uc, w = cluster_updates(np.zeros(1), eps, S, lam, labels)
+    np.testing.assert_allclose(np.bincount(labels[labels >= 0], w[labels >= 0]), 1.0)
     best = Uc[np.argmin(two_valley(Uc[:, 0])), 0]
     assert 0.3 < abs(best) < 0.7  # inside one mode
 
@@ -31,9 +31,23 @@ def test_two_valley_mppi_on_ridge_clustered_in_a_mode():
 def test_noise_points_belong_to_no_cluster():
     labels = np.array([0, -1, 0, 1, 1, -1])
     S = np.arange(6.0)
-    _, W = cluster_updates(np.zeros(2), np.ones((2, 6)), S, 1.0, labels)
-    assert np.all(W[:, labels == -1] == 0)
-    assert W.shape == (2, 6)
+    eps = np.array([[1.0, 50.0, 3.0, -2.0, 4.0, 70.0], [0.5, 90.0, 0.5, 1.0, 1.0, -80.0]])
+    U, w = cluster_updates(np.array([0.1, -0.1]), eps, S, 1.0, labels)
+    assert np.all(w[labels == -1] == 0) and U.shape == (2, 2)
+
+
+def test_cluster_updates_are_alg1_on_each_cluster():
+    rng = np.random.default_rng(0)
+    K, N, lam = 300, 7, 0.7
+    U0, eps, S = rng.normal(size=N), rng.normal(size=(N, K)), rng.uniform(0, 20, K)
+    labels = rng.integers(-1, 4, K)
+    U, w = cluster_updates(U0, eps, S, lam, labels)
+    for c in range(4):
+        member = labels == c
+        Uc, wc = mppi_update(U0, eps[:, member], S[member], lam)
+        np.testing.assert_allclose(U[c], Uc, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(w[member], wc, rtol=1e-12)
+    assert np.all(w[labels == -1] == 0)
 
 
 def blocked_step(name, **params):

@@ -22,7 +22,14 @@ _SINC_SERIES_MAX = 0.1  # |a| below which sinc(a) uses its series (error < 1e-13
 
 def wrap_angle(theta):
     """Wrap angles to [-pi, pi)."""
-    return (np.asarray(theta) + np.pi) % (2.0 * np.pi) - np.pi
+    theta = np.asarray(theta, dtype=float)
+    return _wrap(theta) if theta.ndim else np.float64(_wrap(float(theta)))
+
+
+@numba.njit(cache=True)
+def _wrap(theta):
+    """wrap_angle for arrays or scalars (numpy's remainder semantics, the same values)."""
+    return (theta + np.pi) % (2.0 * np.pi) - np.pi
 
 
 def sinc(a):
@@ -82,7 +89,7 @@ def rollout_time_major(x0, omega, v, dt, starts=1):
     out[0] = np.reshape(x0, (3, starts, -1))
     a, mid, step = _arcs(out, omega, 0.5 * dt, v * dt)
     if step is None:  # a sharp turn: sinc beyond its series
-        step = (v * dt) * np.sinc(a / np.pi)
+        step = (v * dt) * sinc(a)
     _positions(out, step, np.cos(mid), np.sin(mid))
     return out.reshape(n + 1, 3, starts * k)
 
@@ -97,7 +104,7 @@ def _arcs(out, omega, half_dt, vdt):
     n, starts, k = omega.shape[0], out.shape[2], out.shape[3]
     for s in range(starts):
         for j in range(k):
-            out[0, 2, s, j] = (out[0, 2, s, j] + np.pi) % (2.0 * np.pi) - np.pi
+            out[0, 2, s, j] = _wrap(out[0, 2, s, j])
     a = omega * half_dt
     mid = np.empty((n, starts, k), dtype=np.float32)
     for i in range(n):

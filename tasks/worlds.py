@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from dcmppi import defaults
+from dcmppi.dynamics import wrap_angle
 
 # Forest (SPEC section 4). FOREST_CLUSTERS is the one density knob: the number of
 # obstacle clusters in the 75 x 50 m map. 65 is chosen so that `mppi` without noise fails
@@ -242,11 +243,6 @@ def generate_crowd(
         bounds=bounds,
         obstacle_model=crowd_obstacle_model(speed_range, turn_rate_range),
     )
-
-
-def wrap_angle(theta):
-    """Angles wrapped to [-pi, pi)."""
-    return (np.asarray(theta) + np.pi) % (2.0 * np.pi) - np.pi
 
 
 def dubins_pose(pose, speed, turn_rate, t) -> np.ndarray:

@@ -34,6 +34,10 @@ def test_noise_points_belong_to_no_cluster():
     eps = np.array([[1.0, 50.0, 3.0, -2.0, 4.0, 70.0], [0.5, 90.0, 0.5, 1.0, 1.0, -80.0]])
     U, w = cluster_updates(np.array([0.1, -0.1]), eps, S, 1.0, labels)
     assert np.all(w[labels == -1] == 0) and U.shape == (2, 2)
+    for c in (0, 1):  # a weighted mean of the cluster's own perturbations, not the noise's
+        member = eps[:, labels == c]
+        assert np.all(U[c] >= member.min(axis=1) + [0.1, -0.1] - 1e-12)
+        assert np.all(U[c] <= member.max(axis=1) + [0.1, -0.1] + 1e-12)
 
 
 def test_cluster_updates_are_alg1_on_each_cluster():

@@ -11,10 +11,12 @@ microseconds, following sklearn's conventions:
   each unlabelled core point starts a new cluster that a depth-first search extends over its core
   neighbours and labels their non-core neighbours with; the rest is noise, -1.
 
-Neighbourhoods come from sorting on the first feature: the neighbours of sorted point p lie
-within the window of points whose first-feature gap g has g * g <= eps^2 (a larger gap makes the
-whole squared distance larger). Three passes over the windows: neighbour counts, components of
-the core points (union-find), labels of the non-core points.
+Neighbourhoods come from cells of the first feature, a little wider than eps: a neighbour's gap
+in the first feature alone is within eps (a larger gap makes the whole squared distance larger),
+so the neighbours of a point in cell c lie in cells c - 1 .. c + 1, which a counting sort by cell
+makes one window of consecutive positions. Three passes over the windows: neighbour counts,
+components of the core points (union-find), labels of the non-core points. Points spread over
+more than 4 cells per point or 10^6 cells, or with values that are not finite, go to sklearn.
 
 sklearn tests distances this way in its KD-tree, which its NearestNeighbors picks for at most
 15 features and n // 2 > 5 points (5: the default n_neighbors). Otherwise (brute force) it
@@ -32,6 +34,9 @@ import numpy as np
 from sklearn.cluster import DBSCAN
 
 KD_TREE_MIN_SAMPLES = 12  # sklearn.neighbors: n // 2 <= 5 points use brute force
+CELL_MARGIN = 1e-9  # cells a little wider than eps: rounding never puts a neighbour two away
+MAX_CELLS_PER_POINT = 4  # sparser points (far apart in x) go to sklearn, as do more cells than
+MAX_CELLS = 10**6  # (cell indices then round by less than 1e-9 of a cell, within the margin)
 
 
 def dbscan(X, eps, min_samples):
@@ -50,41 +55,64 @@ def dbscan(X, eps, min_samples):
     if n < KD_TREE_MIN_SAMPLES or d != 2:
         return DBSCAN(eps=eps, min_samples=min_samples).fit(X).labels_.astype(np.intp)
     X = np.asarray(X, dtype=np.float64)
-    order = np.argsort(X[:, 0])  # numpy's sort: several times faster than numba's
-    x, y = X[:, 0].take(order), X[:, 1].take(order)
-    return _dbscan(x, y, order, float(eps) * float(eps), int(min_samples))
+    x, y = X[:, 0], X[:, 1]
+    lo, span = _extent(x, y)
+    width = float(eps) * (1.0 + CELL_MARGIN)
+    if not span / width <= min(MAX_CELLS_PER_POINT * n, MAX_CELLS):
+        # non-finite values (sklearn names them) or points too sparse for cells of width eps
+        return DBSCAN(eps=eps, min_samples=min_samples).fit(X).labels_.astype(np.intp)
+    return _dbscan(x, y, lo, 1.0 / width, float(eps) * float(eps), int(min_samples))
 
 
 @numba.njit(cache=True)
-def _dbscan(x, y, order, eps2, min_samples):
-    """Labels (n,) by original index of 2-D points (x, y) sorted by x, (x[p], y[p]) =
-    X[order[p]]. The labels do not depend on how ties in x are ordered."""
-    start, end = _windows(x, eps2)
+def _extent(x, y):
+    """min x and max x - min x; the span is nan when any x or y is not finite."""
+    lo, hi, finite = np.inf, -np.inf, 0.0
+    for k in range(len(x)):
+        lo, hi = min(lo, x[k]), max(hi, x[k])
+        finite += (x[k] - x[k]) + (y[k] - y[k])  # nan for inf or nan
+    return lo, hi - lo + finite
+
+
+@numba.njit(cache=True)
+def _dbscan(x, y, lo, inv_width, eps2, min_samples):
+    """Labels (n,) by original index of the 2-D points (x, y), grouped in cells of x."""
+    order, start, end = _cells(x, lo, inv_width)
+    x, y = x[order], y[order]
     core = _neighbour_counts(x, y, start, end, eps2) >= min_samples
     root = _components(x, y, end, eps2, core)
     return _labels(x, y, start, end, eps2, core, root, order)
 
 
 @numba.njit(cache=True)
-def _windows(x, eps2):
-    """The candidate neighbours of sorted point p: positions [start[p], end[p]) (p included),
-    the points whose gap in x alone is within eps. (x_p - x_s)^2 <= eps2 is symmetric and
-    monotone in the gap, so start[p] is the first s whose window reaches p: the number of
-    windows that end at or before p."""
+def _cells(x, lo, inv_width):
+    """Counting sort of the points by cell c = floor((x - lo) / width) of x, width just over eps.
+
+    Returns order (n,): original index of every position (cells ascending, original indices
+    ascending within a cell), and the candidate neighbours of the point at position p:
+    positions [start[p], end[p]), the cells c - 1 .. c + 1 (a neighbour's gap in x alone is
+    within eps, so it is at most one cell away).
+    """
     n = len(x)
-    end = np.empty(n, dtype=np.intp)
-    q = 0
+    cell = np.empty(n, dtype=np.intp)
+    for k in range(n):
+        cell[k] = int((x[k] - lo) * inv_width)
+    below = np.zeros(cell.max() + 4, dtype=np.intp)  # below[c]: points in cells < c - 1
+    for k in range(n):
+        below[cell[k] + 2] += 1
+    for c in range(len(below) - 1):
+        below[c + 1] += below[c]
+    order = np.empty(n, dtype=np.intp)
+    slot = below[1:].copy()  # next free position of each cell
+    for k in range(n):
+        order[slot[cell[k]]] = k
+        slot[cell[k]] += 1
+    start, end = np.empty(n, dtype=np.intp), np.empty(n, dtype=np.intp)
     for p in range(n):
-        q = max(q, p + 1)
-        while q < n and (x[q] - x[p]) * (x[q] - x[p]) <= eps2:
-            q += 1
-        end[p] = q
-    start = np.zeros(n + 1, dtype=np.intp)  # start[p] = #{s: end[s] <= p}, without branches
-    for s in range(n):
-        start[end[s]] += 1
-    for p in range(n):
-        start[p + 1] += start[p]
-    return start[:n], end
+        c = cell[order[p]]
+        start[p] = below[c]
+        end[p] = below[c + 3]
+    return order, start, end
 
 
 # The loops over windows below index slices from 0 (numba then knows the index is not negative
@@ -102,7 +130,7 @@ def _near(xp, yp, x, y, i, eps2):
 
 @numba.njit(cache=True)
 def _neighbour_counts(x, y, start, end, eps2):
-    """(n,) neighbours of every sorted point, self included."""
+    """(n,) neighbours of the point at every position, self included."""
     n = len(x)
     count = np.empty(n, dtype=np.intp)
     for p in range(n):
@@ -125,10 +153,11 @@ def _find(parent, i):
 
 @numba.njit(cache=True)
 def _components(x, y, end, eps2, core):
-    """(n,) root of every sorted point: connected components of the core points (neighbour
-    pairs of two core points join; the lower root stays), other points are their own root.
+    """(n,) root of the point at every position: connected components of the core points
+    (neighbour pairs of two core points join; the lower root stays), other points are their own.
 
-    Sweeping in x order, core point p joins the core neighbours q > p in its window. A q that
+    Sweeping the positions in order, core point p joins the core neighbours q > p in its window
+    (so every pair is met once, from its lower position). A q that
     is still a singleton (parent[q] == q: no earlier point reached it) simply takes p's root, in
     the same vectorised pass that counts the neighbours already joined to another node; only
     those (two trees meeting, rare) need a second pass with finds and unions.
@@ -186,7 +215,7 @@ def _labels(x, y, start, end, eps2, core, root, order):
         if number[i] == 0:
             number[i] = clusters
             clusters += 1
-    label = np.full(n, n)  # per sorted point: its cluster number if core, else n
+    label = np.full(n, n)  # per position: its cluster number if core, else n
     for p in range(n):
         if core[p]:
             label[p] = number[first[root[p]]]

@@ -99,3 +99,25 @@ def test_controller_features(seed):
         S += 1e3 * (rng.random(K) < 0.2)  # collisions
         X = cluster_features(raw[None, :], S, lam, sigma, COST_CLIP, raw)
         assert_like_sklearn(X, DBSCAN_EPS, DBSCAN_MIN_SAMPLES)
+
+
+def test_far_from_origin_and_sparse_points():
+    """Cells of x are counted from the least x, so they stay exact far from the origin; points
+    spread over more cells than the counting sort takes go to sklearn."""
+    rng = np.random.default_rng(7)
+    for offset in (1e3, 1e6, -1e6):
+        X = rng.integers(-20, 20, (300, 2)) * 0.1 + offset
+        for eps in (0.1, 0.2, 0.3):
+            assert_like_sklearn(X, eps, 3)
+    sparse = np.column_stack([np.r_[np.zeros(20), 1e4], np.zeros(21)])
+    assert_like_sklearn(sparse, 0.2, 5)
+    assert (dbscan(sparse, 0.2, 5) == np.r_[np.zeros(20), -1]).all()
+
+
+@pytest.mark.parametrize("column", [0, 1])
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_non_finite_features_raise(column, bad):
+    X = np.random.default_rng(3).standard_normal((50, 2))
+    X[4, column] = bad
+    with pytest.raises(ValueError, match="NaN|infinity"):
+        dbscan(X, 0.2, 5)

@@ -58,11 +58,14 @@ def cluster_labels(features, dbscan_eps=DBSCAN_EPS, min_samples=DBSCAN_MIN_SAMPL
     return dbscan(features, dbscan_eps, min_samples)
 
 
-def cluster_updates(U0, eps, S, lambda_, labels):
+def cluster_updates(U0, eps, S, lambda_, labels, raw=None, bound=None):
     """Alg. 1 inside every cluster (Alg. 2 lines 12-14).
 
     Args:
       U0: (N,). eps: (N, K). S: (K,). labels: (K,) with M clusters 0..M-1 and noise -1.
+      raw, bound: with constant perturbations, the scalar samples (K,) and the control bound:
+        eps[:, k] is then recomputed as clip(U0 + raw_k, -bound, bound) - U0 (the same values,
+        without reading down the columns of the (N, K) array).
     Returns:
       U: (M, N) control sequence per cluster; w: (K,) each sample's weight within its own
       cluster (each cluster's weights sum to 1; noise points 0).
@@ -70,7 +73,9 @@ def cluster_updates(U0, eps, S, lambda_, labels):
     M = int(labels.max()) + 1 if len(labels) else 0
     w = _cluster_exponents(S, labels, M, lambda_)
     np.exp(w, out=w)  # numpy's vectorised exp: several times faster than numba's scalar one
-    return _cluster_sums(U0, eps, w, labels, M), w
+    if raw is None:
+        raw, bound = np.zeros(0), 0.0
+    return _cluster_sums(U0, eps, raw, float(bound), w, labels, M), w
 
 
 @numba.njit(cache=True)
@@ -89,9 +94,9 @@ def _cluster_exponents(S, labels, M, lambda_):
 
 
 @numba.njit(cache=True)
-def _cluster_sums(U0, eps, w, labels, M):
+def _cluster_sums(U0, eps, raw, bound, w, labels, M):
     """Normalises the exp terms w (K,) per cluster in place (sums in index order) and returns
-    U (M, N) = U0 + sum_k w_k eps_k over each cluster's samples.
+    U (M, N) = U0 + sum_k w_k eps_k over each cluster's samples (eps_k from raw when given).
 
     Every sample belongs to at most one cluster, so U costs one multiply-add per clustered sample
     and step (a dense (M, K) x (K, N) product would spend M times that on zero weights).
@@ -106,8 +111,12 @@ def _cluster_sums(U0, eps, w, labels, M):
         c = labels[k]
         if c >= 0:
             w[k] /= eta[c]
-            for i in range(N):
-                U[c, i] += w[k] * eps[i, k]
+            if len(raw):
+                for i in range(N):
+                    U[c, i] += w[k] * (min(max(U0[i] + raw[k], -bound), bound) - U0[i])
+            else:
+                for i in range(N):
+                    U[c, i] += w[k] * eps[i, k]
     for c in range(M):
         for i in range(N):
             U[c, i] += U0[i]
@@ -148,7 +157,7 @@ class ClusteredMPPI(MPPI):
             plan, w = mppi_update(self.U, eps, S, self.lambda_)
             d.chosen, d.cluster_controls, d.cluster_costs = -1, np.zeros((0, self.N)), np.zeros(0)
         else:
-            U, w = cluster_updates(self.U, eps, S, self.lambda_, labels)
+            U, w = cluster_updates(self.U, eps, S, self.lambda_, labels, raw, self.omega_max)
             _, Jm = self.evaluate(state, U.T)
             best = int(np.argmin(Jm))
             plan, w = U[best], np.where(labels == best, w, 0.0)

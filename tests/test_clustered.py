@@ -54,6 +54,21 @@ def test_cluster_updates_are_alg1_on_each_cluster():
     assert np.all(w[labels == -1] == 0)
 
 
+def test_constant_perturbation_updates_recompute_eps_exactly():
+    """With the scalar samples and the bound, the update recomputes the clipped perturbations:
+    bit-identical to reading them from eps, clipping at the bound included."""
+    rng = np.random.default_rng(1)
+    K, N, bound = 400, 30, 0.8
+    U0, raw = rng.uniform(-bound, bound, N), rng.normal(0, 1.0, K)
+    eps = np.clip(U0[:, None] + raw, -bound, bound) - U0[:, None]
+    assert (np.abs(U0[:, None] + raw) > bound).mean() > 0.2  # many samples clipped
+    S, labels = rng.uniform(0, 30, K), rng.integers(-1, 5, K)
+    U, w = cluster_updates(U0, eps, S, 0.7, labels)
+    Ur, wr = cluster_updates(U0, eps, S, 0.7, labels, raw, bound)
+    np.testing.assert_array_equal(Ur, U)
+    np.testing.assert_array_equal(wr, w)
+
+
 def blocked_step(name, **params):
     """One step with a cylinder straight ahead between the robot and the goal."""
     ctrl = dcmppi.make_controller(name, seed=0, **params)

@@ -202,29 +202,33 @@ def _labels(x, y, start, end, eps2, core, root, order):
     reached it), else -1. Returns labels by original index.
     """
     n = len(x)
-    first = np.full(n, n)  # per root: the lowest original index of its component's core points
+    # Flags select values instead of guarding branches (core and non-core points alternate
+    # unpredictably); index n is a scratch entry.
+    first = np.full(n + 1, n)  # per root: the lowest original index of its component's cores
     for p in range(n):
-        if core[p]:
-            first[root[p]] = min(first[root[p]], order[p])
-    number = np.full(n, -1)  # per original index: the number of the cluster it starts
+        first[root[p]] = min(first[root[p]], order[p] if core[p] else n)
+    number = np.full(n + 1, -1)  # per original index: the number of the cluster it starts
     for p in range(n):
-        if core[p] and root[p] == p:
-            number[first[p]] = 0
+        number[first[p]] = 0  # first[p] < n only for the root of a component
     clusters = 0
     for i in range(n):
-        if number[i] == 0:
-            number[i] = clusters
-            clusters += 1
-    label = np.full(n, n)  # per position: its cluster number if core, else n
+        starts = number[i] == 0
+        number[i] = clusters if starts else number[i]
+        clusters += starts
+    label = np.empty(n, dtype=np.intp)  # per position: its cluster number if core, else n
+    outside = np.empty(n, dtype=np.intp)  # positions of the non-core points
+    m = 0
     for p in range(n):
-        if core[p]:
-            label[p] = number[first[root[p]]]
+        label[p] = number[first[root[p]]] if core[p] else n
+        outside[m] = p
+        m += not core[p]
     labels = np.empty(n, dtype=np.intp)
     for p in range(n):
-        least = label[p]
-        if not core[p]:  # the least label of its core neighbours
-            xw, yw, lw = x[start[p] : end[p]], y[start[p] : end[p]], label[start[p] : end[p]]
-            for i in range(len(xw)):
-                least = min(least, lw[i] if _near(x[p], y[p], xw, yw, i, eps2) else n)
+        labels[order[p]] = label[p] if core[p] else -1
+    for p in outside[:m]:  # the least label of its core neighbours
+        xw, yw, lw = x[start[p] : end[p]], y[start[p] : end[p]], label[start[p] : end[p]]
+        least = n
+        for i in range(len(xw)):
+            least = min(least, lw[i] if _near(x[p], y[p], xw, yw, i, eps2) else n)
         labels[order[p]] = least if least < n else -1
     return labels

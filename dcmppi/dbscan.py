@@ -16,7 +16,8 @@ in the first feature alone is within eps (a larger gap makes the whole squared d
 so the neighbours of a point in cell c lie in cells c - 1 .. c + 1, which a counting sort by cell
 makes one window of consecutive positions. Three passes over the windows: neighbour counts,
 components of the core points (union-find), labels of the non-core points. Points spread over
-more than 4 cells per point or 10^6 cells, or with values that are not finite, go to sklearn.
+more than 4 cells per point or 10^6 cells, values that are not finite and radii whose square
+is not a normal float (or bad parameters, which sklearn names) go to sklearn.
 
 sklearn tests distances this way in its KD-tree, which its NearestNeighbors picks for at most
 15 features and n // 2 > 5 points (5: the default n_neighbors). Otherwise (brute force) it
@@ -29,6 +30,8 @@ The kernels compile at the first call (a few seconds) and are cached on disk by 
 tests/test_dbscan.py checks the labels against sklearn on many random inputs.
 """
 
+import numbers
+
 import numba
 import numpy as np
 from sklearn.cluster import DBSCAN
@@ -37,6 +40,7 @@ KD_TREE_MIN_SAMPLES = 12  # sklearn.neighbors: n // 2 <= 5 points use brute forc
 CELL_MARGIN = 1e-9  # cells a little wider than eps: rounding never puts a neighbour two away
 MAX_CELLS_PER_POINT = 4  # sparser points (far apart in x) go to sklearn, as do more cells than
 MAX_CELLS = 10**6  # (cell indices then round by less than 1e-9 of a cell, within the margin)
+_TINY = np.finfo(float).tiny  # the least normal float64
 
 
 def dbscan(X, eps, min_samples):
@@ -52,16 +56,22 @@ def dbscan(X, eps, min_samples):
     n, d = np.shape(X)
     if n == 0:
         return np.full(0, -1, dtype=np.intp)
-    if n < KD_TREE_MIN_SAMPLES or d != 2:
-        return DBSCAN(eps=eps, min_samples=min_samples).fit(X).labels_.astype(np.intp)
+    valid = isinstance(eps, numbers.Real) and isinstance(min_samples, numbers.Integral)
+    eps2 = float(eps) * float(eps) if valid and eps > 0 and min_samples >= 1 else np.nan
+    # eps^2 must be a normal number: a subnormal, 0 or inf square passes gaps beyond eps
+    if n < KD_TREE_MIN_SAMPLES or d != 2 or not _TINY <= eps2 < np.inf:
+        return _sklearn(X, eps, min_samples)  # which also names bad parameters
     X = np.asarray(X, dtype=np.float64)
     x, y = X[:, 0], X[:, 1]
     lo, span = _extent(x, y)
     width = float(eps) * (1.0 + CELL_MARGIN)
     if not span / width <= min(MAX_CELLS_PER_POINT * n, MAX_CELLS):
-        # non-finite values (sklearn names them) or points too sparse for cells of width eps
-        return DBSCAN(eps=eps, min_samples=min_samples).fit(X).labels_.astype(np.intp)
-    return _dbscan(x, y, lo, 1.0 / width, float(eps) * float(eps), int(min_samples))
+        return _sklearn(X, eps, min_samples)  # non-finite values, or too sparse for cells
+    return _dbscan(x, y, lo, 1.0 / width, eps2, int(min_samples))
+
+
+def _sklearn(X, eps, min_samples):
+    return DBSCAN(eps=eps, min_samples=min_samples).fit(X).labels_.astype(np.intp)
 
 
 @numba.njit(cache=True)

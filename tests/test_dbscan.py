@@ -121,3 +121,19 @@ def test_non_finite_features_raise(column, bad):
     X[4, column] = bad
     with pytest.raises(ValueError, match="NaN|infinity"):
         dbscan(X, 0.2, 5)
+
+
+@pytest.mark.parametrize("eps", [1e160, 1e-160, 1e-170])
+def test_radii_whose_square_is_not_a_normal_float(eps):
+    """eps^2 overflowing, subnormal or 0: sklearn's test then passes gaps of several eps, which
+    cells of width eps would miss; such radii go to sklearn (12 points 3 eps apart in pairs)."""
+    x = np.repeat(np.arange(6) * 4.0, 2) * eps + np.tile([0.0, 1.0 + 1e-6], 6) * eps
+    X = np.column_stack([x, np.zeros(12)])
+    assert_like_sklearn(X, eps, 2)
+
+
+@pytest.mark.parametrize("eps, min_samples", [(-0.2, 5), (0.0, 5), (0.2, 0), (0.2, 2.5)])
+def test_bad_parameters_raise_sklearns_error(eps, min_samples):
+    X = np.random.default_rng(4).standard_normal((50, 2))
+    with pytest.raises(ValueError, match="eps|min_samples"):
+        dbscan(X, eps, min_samples)

@@ -36,8 +36,9 @@ class OccupancyGrid:
     A cell is occupied when its square meets any inflated disc, so a point inside a disc always
     lands in an occupied cell (the map never misses a collision); a point at most one cell
     diagonal (resolution * sqrt(2) = 0.14 m at 0.1 m) outside a disc may also count as one.
-    Outside the grid everything is free. The grid has a one-cell free border so lookups clip
-    indices instead of testing bounds.
+    Outside the grid everything is free: lookups clip indices to the grid's outer ring of cells,
+    which stays free (a two-cell border; rasterising never writes the outer ring, where rounding
+    could otherwise put the cell that only touches a disc and make a wall to infinity).
 
     Args:
       static: (M, 3) x, y, radius of the cylinders; rows with radius 0 are ignored.
@@ -60,12 +61,15 @@ class OccupancyGrid:
             lo = (cyl[:, :2] - radius[:, None]).min(axis=0)
             hi = (cyl[:, :2] + radius[:, None]).max(axis=0)
         shape = np.floor((hi - lo) / resolution).astype(int) + 1
-        self.origin = lo - resolution  # corner of the free border cell
-        self.shape = (int(shape[0]) + 2, int(shape[1]) + 2)
+        self.origin = lo - 2 * resolution  # corner of the outer ring's first cell
+        self.shape = (int(shape[0]) + 4, int(shape[1]) + 4)
+        inner = np.array(self.shape) - 2  # last index inside the outer ring
         grid = np.zeros(self.shape, dtype=bool)
         for (cx, cy, _), r in zip(cyl, radius, strict=True):
-            i0, j0 = np.floor((np.array([cx, cy]) - r - self.origin) / resolution).astype(int)
-            i1, j1 = np.floor((np.array([cx, cy]) + r - self.origin) / resolution).astype(int)
+            centre = np.array([cx, cy])
+            i0, j0 = np.maximum(np.floor((centre - r - self.origin) / resolution), 1).astype(int)
+            i1, j1 = np.minimum(np.floor((centre + r - self.origin) / resolution), inner)
+            i1, j1 = int(i1), int(j1)
             xs = self.origin[0] + np.arange(i0, i1 + 1) * resolution  # cell lower edges
             ys = self.origin[1] + np.arange(j0, j1 + 1) * resolution
             nx = np.clip(cx, xs, xs + resolution) - cx  # nearest point of each cell column
@@ -94,9 +98,16 @@ class OccupancyGrid:
 @numba.njit(inline="always")
 def _occupied(flat, columns, origin, limit, inv, x, y):
     """Whether the cell of point (x, y) is occupied; points outside fall on the free border."""
-    i = int(min(max((x - origin[0]) * inv, 0.0), limit[0]))
-    j = int(min(max((y - origin[1]) * inv, 0.0), limit[1]))
-    return flat[i * columns + j]
+    return flat[_index(x, origin[0], inv, limit[0]) * columns + _index(y, origin[1], inv, limit[1])]
+
+
+@numba.njit(inline="always")
+def _index(x, origin, inv, limit):
+    """Cell index of coordinate x clipped to [0, limit]; nan goes to 0 (selects, not min/max,
+    whose nan handling depends on the argument order)."""
+    v = (x - origin) * inv
+    v = v if v > 0.0 else 0.0
+    return int(v if v < limit else limit)
 
 
 @numba.njit(cache=True)

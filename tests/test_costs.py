@@ -19,6 +19,26 @@ def test_grid_is_conservative_and_tight():
     assert not grid.lookup(np.array([-100.0, 100.0]), np.array([0.0, 50.0])).any()
 
 
+def test_grid_is_free_beyond_its_edges():
+    """No strip of occupied cells runs out of the map: rounding once put the cell that only
+    touches a disc on the border, which lookups outside the grid clip to (about half of random
+    forests had such a wall to infinity through a disc's centre)."""
+    rng = np.random.default_rng(6)
+    for _ in range(200):
+        static = np.column_stack([rng.uniform(-50, 150, (3, 2)), rng.uniform(0.1, 3.0, 3)])
+        grid = OccupancyGrid(static, rng.uniform(0.0, 1.0), float(rng.choice([0.1, 0.05, 0.3])))
+        along = np.concatenate([static[:, 0], static[:, 1]])[:, None] + np.linspace(-4, 4, 81)
+        far = np.full_like(along, 1e4)
+        for x, y in ((far, along), (-far, along), (along, far), (along, -far)):
+            assert not grid.lookup(x, y).any()
+
+
+def test_grid_lookup_of_nan_is_free():
+    grid = OccupancyGrid(np.array([[0.0, 0.0, 1.0]]), 0.5)
+    assert not grid.lookup(np.array([np.nan, 0.0, np.nan]), np.array([0.0, np.nan, np.nan])).any()
+    assert grid.lookup(np.array([0.0]), np.array([0.0]))[0]
+
+
 def test_grid_ignores_padding_and_matches():
     static = np.array([[0.0, 0.0, 0.0], [3.0, 3.0, 1.0]])
     grid = OccupancyGrid(static, 0.5)

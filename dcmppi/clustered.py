@@ -36,6 +36,8 @@ def cluster_features(eps, S, lambda_, sigma, cost_clip=COST_CLIP, raw=None):
       sigma: perturbation standard deviation. raw: (K,) scalar constant perturbations, if any.
     """
     if raw is not None:
+        if np.shape(raw) != np.shape(S):
+            raise ValueError(f"raw and S must be (K,) alike; got {np.shape(raw)}, {np.shape(S)}")
         return _constant_features(raw, S, sigma, lambda_, cost_clip).T
     cost = np.minimum((S - S.min()) / lambda_, cost_clip)
     return np.column_stack([eps.T / (sigma * np.sqrt(len(eps))), cost])
@@ -70,7 +72,15 @@ def cluster_updates(U0, eps, S, lambda_, labels, raw=None, bound=None):
       U: (M, N) control sequence per cluster; w: (K,) each sample's weight within its own
       cluster (each cluster's weights sum to 1; noise points 0).
     """
-    M = int(labels.max()) + 1 if len(labels) else 0
+    N, K = eps.shape
+    if np.shape(U0) != (N,) or S.shape != (K,) or labels.shape != (K,):
+        raise ValueError(
+            f"cluster_updates needs U0 (N,), S (K,) and labels (K,) for eps (N, K) = {eps.shape}; "
+            f"got {np.shape(U0)}, {S.shape}, {labels.shape}"
+        )
+    if raw is not None and np.shape(raw) != (K,):
+        raise ValueError(f"raw must be (K,) = ({K},); got {np.shape(raw)}")
+    M = int(labels.max()) + 1 if K else 0
     w = _cluster_exponents(S, labels, M, lambda_)
     np.exp(w, out=w)  # numpy's vectorised exp: several times faster than numba's scalar one
     if raw is None:

@@ -20,6 +20,7 @@ from .costs import RESOLUTION, OccupancyGrid, collision_counts, goal_distance, v
 from .dynamics import rollout_time_major
 
 PERTURBATIONS = ("constant", "time_varying")
+MAX_COORDINATE = 1e6  # |state| and |goal| bound: far beyond, squared distances overflow
 
 _REGISTRY = {}
 
@@ -210,6 +211,11 @@ class Controller:
         goal = np.asarray(goal, dtype=float)
         if state.shape != (3,) or goal.shape != (2,):
             raise ValueError(f"state must be (3,) and goal (2,); got {state.shape}, {goal.shape}")
+        if not (np.abs(state) < MAX_COORDINATE).all() or not (np.abs(goal) < MAX_COORDINATE).all():
+            raise ValueError(
+                f"state and goal must be finite and within {MAX_COORDINATE:.0e} (m, rad); "
+                f"got {state}, {goal}"
+            )
         if self._grid is None or not self._grid.matches(static):
             self._grid = OccupancyGrid(static, self.robot_radius, self.resolution)
         self._goal = goal

@@ -17,6 +17,7 @@ import numba
 import numpy as np
 
 RESOLUTION = 0.1  # occupancy-grid cell size [m]
+MAX_CELLS = 1e8  # occupancy-grid cells (100 MB)
 
 
 def valid_cylinders(cylinders, name, columns=3):
@@ -26,8 +27,12 @@ def valid_cylinders(cylinders, name, columns=3):
     cylinders = np.asarray(cylinders, dtype=float)
     if cylinders.ndim != 2 or cylinders.shape[1] != columns:
         raise ValueError(f"{name} must have shape (rows, {columns}); got {cylinders.shape}")
-    radius = cylinders[:, -1]
-    return cylinders[radius > 0]
+    if not np.isfinite(cylinders).all() or (cylinders[:, -1] < 0).any():
+        raise ValueError(
+            f"{name} obstacles must be finite with radius >= 0 (0 marks a padding row); "
+            f"got rows {np.flatnonzero(~(np.isfinite(cylinders).all(1) & (cylinders[:, -1] >= 0)))}"
+        )
+    return cylinders[cylinders[:, -1] > 0]
 
 
 class OccupancyGrid:
@@ -61,6 +66,11 @@ class OccupancyGrid:
             lo = (cyl[:, :2] - radius[:, None]).min(axis=0)
             hi = (cyl[:, :2] + radius[:, None]).max(axis=0)
         shape = np.floor((hi - lo) / resolution).astype(int) + 1
+        if np.prod(shape.astype(float)) > MAX_CELLS:
+            raise ValueError(
+                f"static obstacles span {hi - lo} m: {int(shape[0])} x {int(shape[1])} cells at "
+                f"resolution {resolution} m, more than {MAX_CELLS:.0e}; use a coarser resolution"
+            )
         self.origin = lo - 2 * resolution  # corner of the outer ring's first cell
         self.shape = (int(shape[0]) + 4, int(shape[1]) + 4)
         inner = np.array(self.shape) - 2  # last index inside the outer ring
@@ -83,7 +93,7 @@ class OccupancyGrid:
         """True when `static` is the array this grid was built from (cheap equality)."""
         if static is None or self.source is None:
             return static is None and self.source is None
-        return static.shape == self.source.shape and np.array_equal(static, self.source)
+        return np.shape(static) == self.source.shape and np.array_equal(static, self.source)
 
     def lookup(self, x, y):
         """Occupancy at points. x, y: (...) coordinates [m]. Returns (...) bool."""
@@ -92,6 +102,7 @@ class OccupancyGrid:
 
     def count(self, x, y):
         """Occupied states of every rollout. x, y: (N + 1, R) coordinates [m]. Returns (R,) int."""
+        _check_steps(x, y)
         return _occupied_steps(*self._cells, x, y)
 
 
@@ -131,7 +142,14 @@ def _occupied_steps(flat, columns, origin, limit, inv, x, y):
 
 def goal_distance(x, y, goal):
     """Sum over steps of the distance to the goal. x, y: (N + 1, K). Returns (K,)."""
+    _check_steps(x, y)
     return _goal_distance(x, y, float(goal[0]), float(goal[1]))
+
+
+def _check_steps(x, y):
+    """The numba sums index x and y alike without bounds checks."""
+    if x.ndim != 2 or x.shape != y.shape:
+        raise ValueError(f"x and y must be (N + 1, R) alike; got {x.shape} and {y.shape}")
 
 
 @numba.njit(cache=True)

@@ -67,7 +67,8 @@ def dbscan(X, eps, min_samples):
     width = float(eps) * (1.0 + CELL_MARGIN)
     if not span / width <= min(MAX_CELLS_PER_POINT * n, MAX_CELLS):
         return _sklearn(X, eps, min_samples)  # non-finite values, or too sparse for cells
-    return _dbscan(x, y, lo, 1.0 / width, eps2, int(min_samples))
+    # counts never exceed n, so any larger min_samples acts as n + 1 (and fits an int64)
+    return _dbscan(x, y, lo, 1.0 / width, eps2, int(min(min_samples, n + 1)))
 
 
 def _sklearn(X, eps, min_samples):

@@ -45,10 +45,15 @@ class DCMPPI(ClusteredMPPI):
         if obstacle_model is None:
             raise ValueError("dc needs obstacle_model (v_mean, v_std, omega_mean, omega_std)")
         obstacle_model = np.asarray(obstacle_model, dtype=float)
-        if obstacle_model.shape != (4,) or obstacle_model[1] < 0 or obstacle_model[3] < 0:
+        if (
+            obstacle_model.shape != (4,)
+            or not np.isfinite(obstacle_model).all()
+            or obstacle_model[1] < 0
+            or obstacle_model[3] < 0
+        ):
             raise ValueError(
-                f"obstacle_model must be (4,) v_mean, v_std >= 0, omega_mean, omega_std >= 0; "
-                f"got {obstacle_model}"
+                f"obstacle_model must be (4,) finite v_mean, v_std >= 0, omega_mean, "
+                f"omega_std >= 0; got {obstacle_model}"
             )
         speed, turn = sample_speeds(self.rng, obstacle_model, len(moving), self.P)
         reach = (self.v + speed.max(axis=1)) * self.N * self.dt + self.robot_radius + moving[:, 3]

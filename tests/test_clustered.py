@@ -1,6 +1,7 @@
 """Algorithm 2: the two-valley case, a controller facing a blocking cylinder."""
 
 import numpy as np
+import pytest
 
 import dcmppi
 from dcmppi.clustered import cluster_features, cluster_labels, cluster_updates
@@ -67,6 +68,15 @@ def test_constant_perturbation_updates_recompute_eps_exactly():
     Ur, wr = cluster_updates(U0, eps, S, 0.7, labels, raw, bound)
     np.testing.assert_array_equal(Ur, U)
     np.testing.assert_array_equal(wr, w)
+
+
+def test_cluster_updates_check_shapes():
+    eps, S, labels = np.zeros((4, 6)), np.zeros(6), np.zeros(6, dtype=int)
+    for args in ((np.zeros(3), eps, S, 1.0, labels), (np.zeros(4), eps, S[:5], 1.0, labels)):
+        with pytest.raises(ValueError, match="cluster_updates needs"):
+            cluster_updates(*args)
+    with pytest.raises(ValueError, match="raw"):
+        cluster_updates(np.zeros(4), eps, S, 1.0, labels, raw=np.zeros(5), bound=1.0)
 
 
 def blocked_step(name, **params):

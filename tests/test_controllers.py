@@ -45,6 +45,35 @@ def test_bad_inputs():
         ctrl.act(np.zeros(3), np.ones(2), np.zeros((3, 2)))
 
 
+@pytest.mark.parametrize("name", NAMES)
+def test_non_finite_inputs_are_named(name):
+    """NaN or far-off poses and obstacles get a ValueError naming them, not a crash (the numba
+    kernels do not check bounds) or a silently ignored obstacle; the controller still works."""
+    ctrl = dcmppi.make_controller(name, K=50, N=10, seed=0)
+    state, goal, static, moving = scene()
+    model = np.array([1.0, 0.2, 0.0, 0.1])
+    bad = [
+        ("state", (np.array([np.nan, 0.0, 0.0]), goal, static, moving, model)),
+        ("goal", (state, np.array([1e300, 0.0]), static, moving, model)),
+        ("static", (state, goal, np.array([[6.0, np.nan, 1.0]]), moving, model)),
+        ("static", (state, goal, np.array([[6.0, 0.2, -1.0]]), moving, model)),
+        ("moving", (state, goal, static, np.array([[9.0, np.inf, 0.0, 1.0]]), model)),
+    ]
+    if name == "dc":
+        bad.append(("obstacle_model", (state, goal, static, moving, model * np.nan)))
+    for word, args in bad:
+        with pytest.raises(ValueError, match=word):
+            ctrl.act(*args)
+    assert np.isfinite(ctrl.act(state, goal, static.tolist(), moving, model))
+    assert np.isfinite(ctrl.act(state, goal, static.tolist(), moving, model))  # list, grid reused
+
+
+def test_cost_map_too_large_names_resolution():
+    ctrl = dcmppi.make_controller("mppi")
+    with pytest.raises(ValueError, match="coarser resolution"):
+        ctrl.act(np.zeros(3), np.ones(2), np.array([[0.0, 0.0, 1.0], [1e5, 1e5, 1.0]]))
+
+
 def scene():
     static = np.array([[6.0, 0.2, 1.0], [0.0, 0.0, 0.0]])  # one cylinder and a padding row
     moving = np.array([[9.0, -4.0, np.pi / 2, 1.0]])

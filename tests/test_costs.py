@@ -1,6 +1,7 @@
 """Cost map (never misses a cylinder), goal distance and the moving-obstacle collision count."""
 
 import numpy as np
+import pytest
 
 from dcmppi.costs import OccupancyGrid, collision_counts, goal_distance
 
@@ -81,3 +82,11 @@ def test_grid_count_is_lookup_summed_over_steps():
     np.testing.assert_array_equal(counts, grid.lookup(x, y).sum(axis=0))
     assert 0 < counts.sum() < x.size
     np.testing.assert_array_equal(OccupancyGrid(None, 0.5).count(x, y), np.zeros(40))
+
+
+def test_mismatched_steps_raise():
+    grid = OccupancyGrid(np.array([[0.0, 0.0, 1.0]]), 0.5)
+    with pytest.raises(ValueError, match="alike"):
+        grid.count(np.zeros((5, 3)), np.zeros((4, 3)))
+    with pytest.raises(ValueError, match="alike"):
+        goal_distance(np.zeros((5, 3)), np.zeros((5, 2)), np.zeros(2))

@@ -137,3 +137,9 @@ def test_bad_parameters_raise_sklearns_error(eps, min_samples):
     X = np.random.default_rng(4).standard_normal((50, 2))
     with pytest.raises(ValueError, match="eps|min_samples"):
         dbscan(X, eps, min_samples)
+
+
+def test_min_samples_beyond_the_points_is_all_noise():
+    X = np.random.default_rng(8).standard_normal((40, 2))
+    assert_like_sklearn(X, 0.5, 41)
+    assert (dbscan(X, 0.5, 10**30) == -1).all()

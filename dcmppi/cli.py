@@ -8,6 +8,12 @@ import sys
 
 from dcmppi.defaults import NOISE_PROFILES
 
+# names that other flags set for every episode (a parameter would silently override them)
+_RESERVED = {
+    "--param": {"seed": "--seed"},
+    "--task-param": {"random": "--seed", "noise": "--noise"},
+}
+
 
 def _key_values(pairs: list[str], flag: str) -> dict:
     """Parse NAME=VALUE pairs; VALUE is read as JSON when it parses, else as a string."""
@@ -16,6 +22,11 @@ def _key_values(pairs: list[str], flag: str) -> dict:
         name, sep, value = pair.partition("=")
         if not sep or not name:
             raise ValueError(f"{flag} expects NAME=VALUE, got {pair!r}")
+        if name in _RESERVED[flag]:
+            raise ValueError(
+                f"{flag} {name}=... is set per episode; use {_RESERVED[flag][name]} "
+                "(bench: the experiment seeds every environment)"
+            )
         try:
             out[name] = json.loads(value)
         except json.JSONDecodeError:
@@ -111,6 +122,8 @@ def cmd_figure(args) -> int:
     from dcmppi.runner import EpisodeSpec
 
     controllers = _csv(args.controllers)
+    if not controllers:
+        raise ValueError("--controllers needs at least one controller name")
     for controller in controllers:
         _check_names(args.task, controller)
     spec = EpisodeSpec(
@@ -143,11 +156,14 @@ def cmd_bench(args) -> int:
         task_params={**exp.task_params, **_key_values(args.task_param, "--task-param")},
         controller_params={**exp.controller_params, **_key_values(args.param, "--param")},
     )
+    if args.workers < 1:
+        raise ValueError(f"--workers must be >= 1, got {args.workers}")
+    specs = exp.specs()
+    _check_specs(specs)
     db_path = Path(args.db or f"results/{exp.name}.db")
     db_path.parent.mkdir(parents=True, exist_ok=True)
     db = ResultsDB(db_path, exp.config())
     done = db.done()
-    specs = exp.specs()
     todo = [(key, spec) for key, spec in specs if key not in done]
     print(
         f"{exp.name}: {len(specs)} episodes ({exp.episodes} environments x "
@@ -176,12 +192,34 @@ def cmd_bench(args) -> int:
         rows = db.rows()
         db.close()
     wanted = {key for key, _ in specs}
-    print(
-        table(
-            [r for r in rows if (r["noise"], r["controller"], r["env_index"]) in wanted], exp.name
+    rows = [r for r in rows if (r["noise"], r["controller"], r["env_index"]) in wanted]
+    print(table(rows, exp.name))
+    errors = [r for r in rows if r["status"] == "error"]
+    if errors:
+        first = errors[0]
+        print(
+            f"{len(errors)} episode(s) raised errors, e.g. {first['controller']} "
+            f"{first['noise']} environment {first['env_index']}: {first['error']}\n"
+            f"they are recorded as errors in {db_path}; fix the cause and rerun to run them again",
+            file=sys.stderr,
         )
-    )
+        return 1
     return 0
+
+
+def _check_specs(specs) -> None:
+    """Build the environment and every controller of the first episodes before recording
+    anything, so a bad parameter or a missing dependency fails here with its message instead
+    of as one error row per episode."""
+    from dcmppi.runner import make_controller, make_env
+
+    first = {}
+    for _, spec in specs:
+        first.setdefault(spec.controller, spec)
+    for i, spec in enumerate(first.values()):
+        make_controller(spec)
+        if i == 0:
+            make_env(spec).close()
 
 
 def cmd_report(args) -> int:
@@ -300,7 +338,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (ValueError, FileNotFoundError, RuntimeError) as e:
+    except (ValueError, RuntimeError, OSError) as e:
         print(f"dcmppi {args.command}: error: {e}", file=sys.stderr)
         return 2
 

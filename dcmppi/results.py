@@ -59,9 +59,21 @@ class ResultsDB:
         if config is None and not self.path.exists():
             raise FileNotFoundError(f"{self.path}: no results database; run `dcmppi bench` first")
         try:
-            self._db = sqlite3.connect(self.path, timeout=30.0)
-            self._db.execute("PRAGMA journal_mode=WAL")
-            self._db.execute("PRAGMA synchronous=NORMAL")
+            if config is None:  # reading: never create or convert anything
+                uri = f"file:{self.path.resolve()}?mode=ro"
+                self._db = sqlite3.connect(uri, uri=True, timeout=30.0)
+            else:
+                self._db = sqlite3.connect(self.path, timeout=30.0)
+            tables = {r[0] for r in self._db.execute("SELECT name FROM sqlite_master")}
+            if tables and "meta" not in tables:
+                raise ValueError(
+                    f"{self.path}: an SQLite file of something else (tables "
+                    f"{', '.join(sorted(tables))}), not a dcmppi results database; "
+                    "pass another --db path"
+                )
+            if config is not None:
+                self._db.execute("PRAGMA journal_mode=WAL")
+                self._db.execute("PRAGMA synchronous=NORMAL")
             self._init(config)
         except sqlite3.DatabaseError as e:
             raise ValueError(
@@ -71,7 +83,13 @@ class ResultsDB:
 
     def _init(self, config: dict | None) -> None:
         db = self._db
-        db.execute("CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)")
+        if config is None:
+            if not db.execute("SELECT name FROM sqlite_master WHERE name = 'meta'").fetchall():
+                raise ValueError(f"{self.path}: empty database, no experiment recorded")
+        else:
+            db.execute(
+                "CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)"
+            )
         stored = dict(db.execute("SELECT key, value FROM meta").fetchall())
         if not stored:
             if config is None:
@@ -101,8 +119,10 @@ class ResultsDB:
             )
 
     def done(self) -> set[tuple[str, str, int]]:
-        """Keys (noise, controller, env_index) already recorded (finished or errored)."""
-        rows = self._db.execute("SELECT noise, controller, env_index FROM episodes")
+        """Keys (noise, controller, env_index) already finished (errored ones run again)."""
+        rows = self._db.execute(
+            "SELECT noise, controller, env_index FROM episodes WHERE status = 'ok'"
+        )
         return {(n, c, int(i)) for n, c, i in rows}
 
     def record(self, key: tuple[str, str, int], spec, result: dict) -> None:
@@ -124,7 +144,12 @@ class ResultsDB:
         else:
             row.update({k: v for k, v in result.items() if k in row}, status="ok")
         marks = ", ".join("?" for _ in COLUMN_NAMES)
-        with self._db:
+        with self._db:  # a finished episode replaces an error row of the same key
+            self._db.execute(
+                "DELETE FROM episodes WHERE noise = ? AND controller = ? AND env_index = ? "
+                "AND status = 'error'",
+                key,
+            )
             self._db.execute(
                 f"INSERT OR IGNORE INTO episodes ({', '.join(COLUMN_NAMES)}) VALUES ({marks})",
                 [row[n] for n in COLUMN_NAMES],

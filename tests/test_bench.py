@@ -186,11 +186,20 @@ def test_report_numbers_match_the_rows(tmp_path):
         (["run", "--task", "nope", "--controller", "mppi"], "unknown task"),
         (["run", "--task", "blocked", "--controller", "fancy"], "unknown controller"),
         (["bench", "--param", "K"], "NAME=VALUE"),
+        (["bench", "--episodes", "1", "--param", "K=-1"], "K must be > 0"),
+        (["bench", "--episodes", "1", "--param", "seed=3"], "use --seed"),
+        (["bench", "--episodes", "1", "--task-param", "noise=process"], "use --noise"),
+        (["run", "--task", "blocked", "--controller", "mppi", "--param", "seed=3"], "use --seed"),
+        (["figure", "--task", "blocked", "--controllers", ","], "at least one controller"),
     ],
 )
 def test_bad_input_gets_a_clear_error(argv, message, capsys, tmp_path):
-    assert cli.main([*argv, *(["--db", str(tmp_path / "x.db")] if argv[0] == "bench" else [])]) == 2
+    """Refused before anything is recorded: no database is created (a bad parameter used to
+    exit 0 with one error row per episode, and tie a new database to the bad configuration)."""
+    db = tmp_path / "x.db"
+    assert cli.main([*argv, *(["--db", str(db)] if argv[0] == "bench" else [])]) == 2
     assert message in capsys.readouterr().err
+    assert not db.exists()
 
 
 def test_unreadable_database_is_refused_by_the_cli(tmp_path, capsys):

@@ -46,12 +46,34 @@ def test_database_records_resumes_and_never_duplicates(tmp_path):
     db.record(("none", "mppi", 1), _spec(), {"error": "PhysicsError: boom"})
     db.close()
     db = ResultsDB(path, CONFIG)  # reopen: rows survive, the same key is not written twice
-    assert db.done() == {("none", "mppi", 0), ("none", "mppi", 1)}
+    assert db.done() == {("none", "mppi", 0)}  # the errored episode runs again
     db.record(("none", "mppi", 0), _spec(), _result("collision"))
     rows = db.rows()
     assert len(rows) == 2
     assert rows[0]["outcome"] == "goal"
     assert rows[1]["status"] == "error" and "boom" in rows[1]["error"]
+    db.record(("none", "mppi", 1), _spec(), _result("goal"))  # a rerun replaces the error row
+    rows = db.rows()
+    assert len(rows) == 2 and rows[1]["status"] == "ok" and rows[1]["outcome"] == "goal"
+    assert db.done() == {("none", "mppi", 0), ("none", "mppi", 1)}
+
+
+def test_reading_never_writes_to_another_sqlite_file(tmp_path):
+    import sqlite3
+
+    path = tmp_path / "other.db"
+    with sqlite3.connect(path) as c:
+        c.execute("CREATE TABLE users (name TEXT)")
+    before = path.read_bytes()
+    for config in (None, CONFIG):
+        with pytest.raises(ValueError, match="not a dcmppi results database"):
+            ResultsDB(path, config)
+    assert path.read_bytes() == before
+    empty = tmp_path / "empty.db"
+    empty.touch()
+    with pytest.raises(ValueError, match="empty database"):
+        ResultsDB(empty)
+    assert empty.stat().st_size == 0
 
 
 def test_database_refuses_another_configuration(tmp_path):

@@ -27,10 +27,11 @@ def valid_cylinders(cylinders, name, columns=3):
     cylinders = np.asarray(cylinders, dtype=float)
     if cylinders.ndim != 2 or cylinders.shape[1] != columns:
         raise ValueError(f"{name} must have shape (rows, {columns}); got {cylinders.shape}")
-    if not np.isfinite(cylinders).all() or (cylinders[:, -1] < 0).any():
+    bad = ~np.isfinite(cylinders).all(axis=1) | (cylinders[:, -1] < 0)
+    if bad.any():
         raise ValueError(
             f"{name} obstacles must be finite with radius >= 0 (0 marks a padding row); "
-            f"got rows {np.flatnonzero(~(np.isfinite(cylinders).all(1) & (cylinders[:, -1] >= 0)))}"
+            f"bad rows {np.flatnonzero(bad)}"
         )
     return cylinders[cylinders[:, -1] > 0]
 
@@ -78,8 +79,9 @@ class OccupancyGrid:
         for (cx, cy, _), r in zip(cyl, radius, strict=True):
             centre = np.array([cx, cy])
             i0, j0 = np.maximum(np.floor((centre - r - self.origin) / resolution), 1).astype(int)
-            i1, j1 = np.minimum(np.floor((centre + r - self.origin) / resolution), inner)
-            i1, j1 = int(i1), int(j1)
+            i1, j1 = np.minimum(np.floor((centre + r - self.origin) / resolution), inner).astype(
+                int
+            )
             xs = self.origin[0] + np.arange(i0, i1 + 1) * resolution  # cell lower edges
             ys = self.origin[1] + np.arange(j0, j1 + 1) * resolution
             nx = np.clip(cx, xs, xs + resolution) - cx  # nearest point of each cell column

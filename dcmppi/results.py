@@ -71,6 +71,8 @@ class ResultsDB:
                     f"{', '.join(sorted(tables))}), not a dcmppi results database; "
                     "pass another --db path"
                 )
+            if config is None and not tables:
+                raise ValueError(f"{self.path}: empty database, no experiment recorded")
             if config is not None:
                 self._db.execute("PRAGMA journal_mode=WAL")
                 self._db.execute("PRAGMA synchronous=NORMAL")
@@ -83,10 +85,7 @@ class ResultsDB:
 
     def _init(self, config: dict | None) -> None:
         db = self._db
-        if config is None:
-            if not db.execute("SELECT name FROM sqlite_master WHERE name = 'meta'").fetchall():
-                raise ValueError(f"{self.path}: empty database, no experiment recorded")
-        else:
+        if config is not None:
             db.execute(
                 "CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)"
             )

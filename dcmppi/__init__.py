@@ -1,10 +1,12 @@
 """dcmppi: MPPI, Clustered MPPI, DC-MPPI and Tube-MPPI around static and moving obstacles.
 
-Controllers are pure numpy + scikit-learn; the MuJoCo task suite is `dcmppi.tasks`.
-
     import dcmppi
     ctrl = dcmppi.make_controller("dc", K=500, seed=0)
     omega = ctrl.act(state, goal, static, moving, obstacle_model)
+
+Subpackages: dcmppi.control (the algorithms, no MuJoCo), dcmppi.tasks (the dm_control task
+suite), dcmppi.bench (episodes, experiments, results, reports), dcmppi.render (videos and
+figures). `import dcmppi` loads only dcmppi.control.
 """
 
 from pathlib import Path
@@ -16,13 +18,7 @@ from pathlib import Path
 if not (Path(__file__).parent / "tasks").is_dir():
     __path__.append(str(Path(__file__).parent.parent))  # noqa: F821 (the package's __path__)
 
-from . import clustered, dc, mppi, tube  # noqa: E402, F401  (registers the controllers)
-from .controllers import (  # noqa: E402
-    Controller,
-    Diagnostics,
-    controller_names,
-    make_controller,
-)
+from .control import Controller, Diagnostics, controller_names, make_controller  # noqa: E402
 
 __version__ = "0.1.0"
 

@@ -6,7 +6,7 @@ import argparse
 import json
 import sys
 
-from dcmppi.defaults import NOISE_PROFILES
+from dcmppi.control.defaults import NOISE_PROFILES
 
 # names that other flags set for every episode (a parameter would silently override them)
 _RESERVED = {
@@ -47,7 +47,7 @@ def cmd_tasks(args) -> int:
 
 
 def cmd_run(args) -> int:
-    from dcmppi.runner import EpisodeSpec, run_episode
+    from dcmppi.bench.runner import EpisodeSpec, run_episode
 
     spec = EpisodeSpec(
         task=args.task,
@@ -59,9 +59,10 @@ def cmd_run(args) -> int:
     )
     _check_names(spec.task, spec.controller)
     if args.video:
-        from dcmppi.recording import record_episode
+        from dcmppi.bench.runner import Episode
+        from dcmppi.render.recording import record_episode
 
-        result = record_episode(spec, args.video, camera=args.camera)
+        result = record_episode(Episode(spec), args.video, camera=args.camera)
     else:
         result = run_episode(spec)
     if args.json:
@@ -90,8 +91,8 @@ def cmd_run(args) -> int:
 
 
 def cmd_compare(args) -> int:
-    from dcmppi.recording import compare
-    from dcmppi.runner import EpisodeSpec
+    from dcmppi.bench.runner import Episode, EpisodeSpec
+    from dcmppi.render.recording import compare
 
     controllers = _csv(args.controllers)
     specs = []
@@ -107,7 +108,9 @@ def cmd_compare(args) -> int:
                 controller_params=_key_values(args.param, "--param"),
             )
         )
-    results = compare(specs, args.video, camera=args.camera, height=args.height)
+    results = compare(
+        [Episode(spec) for spec in specs], args.video, camera=args.camera, height=args.height
+    )
     for spec, result in zip(specs, results, strict=True):
         print(
             f"{spec.controller:10s} {result['outcome']:10s} {result['steps']:5d} steps, "
@@ -118,8 +121,9 @@ def cmd_compare(args) -> int:
 
 
 def cmd_figure(args) -> int:
-    from dcmppi.figures import write_figures
-    from dcmppi.runner import EpisodeSpec
+    from dcmppi.bench.runner import EpisodeSpec
+    from dcmppi.bench.snapshot import first_step
+    from dcmppi.render.figures import write_figures
 
     controllers = _csv(args.controllers)
     if not controllers:
@@ -134,7 +138,8 @@ def cmd_figure(args) -> int:
         task_params=_key_values(args.task_param, "--task-param"),
         controller_params=_key_values(args.param, "--param"),
     )
-    result = write_figures(spec, args.out, controllers)
+    observation, runs, _ = first_step(spec, controllers)
+    result = write_figures(observation, runs, args.out, f"{spec.task}, seed {spec.seed}")
     for name, action in result["actions"].items():
         print(f"{name:10s} applies omega = {action:+.4f} rad/s")
     print("wrote " + ", ".join(result["files"]), file=sys.stderr)
@@ -145,10 +150,10 @@ def cmd_bench(args) -> int:
     import dataclasses
     from pathlib import Path
 
-    from dcmppi.execution import run_all
-    from dcmppi.experiments import get_experiment
-    from dcmppi.report import table
-    from dcmppi.results import ResultsDB
+    from dcmppi.bench.execution import run_all
+    from dcmppi.bench.experiments import get_experiment
+    from dcmppi.bench.report import table
+    from dcmppi.bench.results import ResultsDB
 
     exp = get_experiment(args.experiment, args.episodes, _csv(args.controllers), _csv(args.noise))
     exp = dataclasses.replace(
@@ -211,7 +216,7 @@ def _check_specs(specs) -> None:
     """Build the environment and every controller of the first episodes before recording
     anything, so a bad parameter or a missing dependency fails here with its message instead
     of as one error row per episode."""
-    from dcmppi.runner import make_controller, make_env
+    from dcmppi.bench.runner import make_controller, make_env
 
     first = {}
     for _, spec in specs:
@@ -223,7 +228,7 @@ def _check_specs(specs) -> None:
 
 
 def cmd_report(args) -> int:
-    from dcmppi.report import write_report
+    from dcmppi.bench.report import write_report
 
     print(write_report(args.db, args.out, plots=not args.no_plots))
     print(f"\nwrote {args.out}/report.md and {args.out}/episodes.csv", file=sys.stderr)
@@ -324,7 +329,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-plots", action="store_true")
     p.set_defaults(func=cmd_report)
 
-    # `timing` parses its own options (dcmppi.timing.main); listed here for --help.
+    # `timing` parses its own options (dcmppi.bench.timing.main); listed here for --help.
     sub.add_parser("timing", help="controller ms per step on fixed problems (--json, --steps)")
     return parser
 
@@ -332,7 +337,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["timing"]:
-        from dcmppi import timing
+        from dcmppi.bench import timing
 
         return timing.main(argv[1:])
     args = build_parser().parse_args(argv)

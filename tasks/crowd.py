@@ -1,6 +1,6 @@
 """`crowd`: 100 moving Dubins cylinders of SPEC section 4 (paper Sec. IV-B)."""
 
-from dcmppi import defaults
+from dcmppi.control import defaults
 
 from . import navigation, worlds
 

@@ -21,7 +21,7 @@ from dm_control.rl import control
 from dm_control.suite import base
 from dm_env import specs
 
-from dcmppi import defaults
+from dcmppi.control import defaults
 
 from . import worlds
 

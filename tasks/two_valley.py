@@ -7,7 +7,7 @@ rollout clustering is for.
 
 import numpy as np
 
-from dcmppi import defaults
+from dcmppi.control import defaults
 
 from . import navigation, worlds
 

@@ -10,8 +10,8 @@ import math
 
 import numpy as np
 
-from dcmppi import defaults
-from dcmppi.dynamics import wrap_angle
+from dcmppi.control import defaults
+from dcmppi.control.dynamics import wrap_angle
 
 # Forest (SPEC section 4). FOREST_CLUSTERS is the one density knob: the number of
 # obstacle clusters in the 75 x 50 m map. 65 is chosen so that `mppi` without noise fails

@@ -15,11 +15,12 @@ import time
 import pytest
 
 from dcmppi import cli
-from dcmppi.execution import run_all
-from dcmppi.experiments import EXPERIMENTS
-from dcmppi.report import summarize, write_report
-from dcmppi.results import ResultsDB
-from dcmppi.runner import EpisodeSpec, run_episode
+from dcmppi.bench.execution import run_all
+from dcmppi.bench.experiments import EXPERIMENTS
+from dcmppi.bench.report import write_report
+from dcmppi.bench.results import ResultsDB
+from dcmppi.bench.runner import EpisodeSpec, run_episode
+from dcmppi.bench.stats import summarize
 
 SMALL = {"K": 32, "N": 20}
 DETERMINISTIC = (

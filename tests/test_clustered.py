@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 import dcmppi
-from dcmppi.clustered import cluster_features, cluster_labels, cluster_updates
-from dcmppi.dynamics import rollout
-from dcmppi.mppi import mppi_update
+from dcmppi.control.clustered import cluster_features, cluster_labels, cluster_updates
+from dcmppi.control.dynamics import rollout
+from dcmppi.control.mppi import mppi_update
 
 
 def two_valley(eps):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import dcmppi
-from dcmppi.dynamics import dubins_step
+from dcmppi.control.dynamics import dubins_step
 
 NAMES = ["mppi", "clustered", "dc", "tube"]
 MODEL = np.array([1.0, 0.29, 0.0, 0.29])

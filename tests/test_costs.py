@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from dcmppi.costs import OccupancyGrid, collision_counts, goal_distance
+from dcmppi.control.costs import OccupancyGrid, collision_counts, goal_distance
 
 
 def test_grid_is_conservative_and_tight():

@@ -1,11 +1,11 @@
-"""dcmppi.dbscan: labels identical to scikit-learn's DBSCAN, edge cases included."""
+"""dcmppi.control.dbscan: labels identical to scikit-learn's DBSCAN, edge cases included."""
 
 import numpy as np
 import pytest
 from sklearn.cluster import DBSCAN
 
-from dcmppi.clustered import COST_CLIP, DBSCAN_EPS, DBSCAN_MIN_SAMPLES, cluster_features
-from dcmppi.dbscan import dbscan
+from dcmppi.control.clustered import COST_CLIP, DBSCAN_EPS, DBSCAN_MIN_SAMPLES, cluster_features
+from dcmppi.control.dbscan import dbscan
 
 
 def assert_like_sklearn(X, eps, min_samples):

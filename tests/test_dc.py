@@ -3,8 +3,8 @@
 import numpy as np
 
 import dcmppi
-from dcmppi.costs import collision_counts
-from dcmppi.dynamics import rollout_time_major
+from dcmppi.control.costs import collision_counts
+from dcmppi.control.dynamics import rollout_time_major
 
 MODEL = np.array([1.0, 0.05, 0.0, 0.02])  # v_mean, v_std, omega_mean, omega_std
 
@@ -15,8 +15,8 @@ def straight_cost(moving, seed=0, **params):
     ctrl.reset()
     state, goal = np.array([0.0, 0.0, 0.0]), np.array([10.0, 0.0])
     ctrl._goal = goal
-    ctrl._grid = dcmppi.costs.OccupancyGrid(None, ctrl.robot_radius)
-    ctrl._prepare_obstacles(state, dcmppi.costs.valid_cylinders(moving, "m", 4), MODEL)
+    ctrl._grid = dcmppi.control.costs.OccupancyGrid(None, ctrl.robot_radius)
+    ctrl._prepare_obstacles(state, dcmppi.control.costs.valid_cylinders(moving, "m", 4), MODEL)
     _, J = ctrl.evaluate(state, np.zeros((ctrl.N, 1)))
     ctrl._prepare_obstacles(state, np.zeros((0, 4)), MODEL)
     _, J0 = ctrl.evaluate(state, np.zeros((ctrl.N, 1)))

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from dcmppi.dynamics import dubins_step, obstacle_futures, rollout, rollout_time_major, sinc
+from dcmppi.control.dynamics import dubins_step, obstacle_futures, rollout, rollout_time_major, sinc
 
 
 def fine_euler(state, U, v, dt, sub=2000):

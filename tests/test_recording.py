@@ -5,11 +5,12 @@ import numpy as np
 import pytest
 from conftest import frames_of
 
-from dcmppi import video
-from dcmppi.figures import write_figures
-from dcmppi.overlay import Overlay
-from dcmppi.recording import compare, record_episode
-from dcmppi.runner import Episode, EpisodeSpec, act, make_controller, make_env
+from dcmppi.bench.runner import Episode, EpisodeSpec, act, make_controller, make_env
+from dcmppi.bench.snapshot import first_step
+from dcmppi.render import video
+from dcmppi.render.figures import write_figures
+from dcmppi.render.overlay import Overlay
+from dcmppi.render.recording import compare, record_episode
 
 SMALL = {"K": 64, "N": 20}
 
@@ -23,7 +24,7 @@ def test_comparison_video_is_synchronised_and_tiles_differ(tmp_path):
     path = tmp_path / "cmp.mp4"
     world = {"distance": 8.0, "time_limit": 5.0}
     specs = [spec("mppi", **world), spec("clustered", **world)]
-    results = compare(specs, path, width=160, height=120, progress=False)
+    results = compare([Episode(s) for s in specs], path, width=160, height=120, progress=False)
     frames = np.asarray(frames_of(path)[1])
     # one frame per control step of the longest episode, plus the reset frame
     assert frames.shape == (max(r["steps"] for r in results) + 1, 120, 320, 3)
@@ -36,7 +37,7 @@ def test_comparison_video_is_synchronised_and_tiles_differ(tmp_path):
 def test_record_episode_gif_has_one_frame_per_step(tmp_path):
     path = tmp_path / "one.gif"
     episode = spec("dc", task="crossing", time_limit=3.0)
-    result = record_episode(episode, path, width=128, height=96, progress=False)
+    result = record_episode(Episode(episode), path, width=128, height=96, progress=False)
     frames = np.asarray(frames_of(path)[1])
     assert result["steps"] == 30
     assert frames.shape[:3] == (result["steps"] + 1, 96, 128)
@@ -70,15 +71,16 @@ def test_overlay_adds_geoms_within_the_scene_budget():
 @pytest.mark.parametrize("task", ["blocked", "crossing"])
 def test_figures_mark_the_controllers_actual_outputs(tmp_path, task):
     s = spec("mppi", task=task, seed=3)
-    result = write_figures(s, tmp_path, ("mppi", "clustered", "dc"))
+    observation, runs, approach = first_step(s, ("mppi", "clustered", "dc"))
+    result = write_figures(observation, runs, tmp_path, f"{task}, seed 3")
     for png in result["files"]:
         assert iio.imread(png).size > 0
     # replay the same step independently: drive straight, then each controller acts once
     env = make_env(s)
     time_step = env.reset()
-    for _ in range(result["approach"]):
+    for _ in range(approach):
         time_step = env.step(np.zeros(1))
-    assert result["approach"] > 0  # the obstacle is out of reach at the start
+    assert approach > 0  # the obstacle is out of reach at the start
     for name, marked in result["actions"].items():
         controller = make_controller(EpisodeSpec(task, name, seed=3, controller_params=SMALL))
         controller.reset()

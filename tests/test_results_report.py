@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from dcmppi.report import mcnemar_exact, paired, summarize, table, wilson
-from dcmppi.results import ConfigMismatch, ResultsDB
-from dcmppi.runner import EpisodeSpec
+from dcmppi.bench.report import table
+from dcmppi.bench.results import ConfigMismatch, ResultsDB
+from dcmppi.bench.runner import EpisodeSpec
+from dcmppi.bench.stats import mcnemar_exact, paired, summarize, wilson
 
 CONFIG = {
     "experiment": "static",

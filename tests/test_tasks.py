@@ -7,7 +7,8 @@ import pytest
 from absl.testing import absltest
 from dm_env import test_utils
 
-from dcmppi import defaults, tasks
+from dcmppi import tasks
+from dcmppi.control import defaults
 
 DATA = pathlib.Path(__file__).parent / "data"
 BARN = str(DATA / "barn_worlds_0_1.csv")

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 from dcmppi.tasks import worlds
 
-from dcmppi import defaults, tasks
+from dcmppi import tasks
+from dcmppi.control import defaults
 
 
 def drive(env, omega=0.0, steps=10_000):

@@ -3,8 +3,8 @@
 import numpy as np
 
 import dcmppi
-from dcmppi.dynamics import dubins_step, rollout, wrap_angle
-from dcmppi.tube import dubins_lqr_gain, jacobian_terms, linearize, tvlqr_gains
+from dcmppi.control.dynamics import dubins_step, rollout, wrap_angle
+from dcmppi.control.tube import dubins_lqr_gain, jacobian_terms, linearize, tvlqr_gains
 
 GOAL = np.array([20.0, 0.0])
 
@@ -91,7 +91,7 @@ def test_two_start_batch_equals_separate_rollouts():
 
 def test_timing_push_keeps_the_nominal_in_some_steps():
     """dcmppi timing's forest+push row exercises both solves and the LQR feedback."""
-    from dcmppi.timing import forest, push, pushed
+    from dcmppi.bench.timing import forest, push, pushed
 
     static, state, goal = forest()
     ctrl = dcmppi.make_controller("tube", seed=0)

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from conftest import frames_of
 
-from dcmppi import tasks, video
+from dcmppi import tasks
+from dcmppi.render import video
 
 
 @pytest.mark.parametrize("suffix, camera", [(".mp4", "top"), (".gif", "chase")])
@@ -91,5 +92,5 @@ def test_broken_backend_gives_one_clear_error(monkeypatch):
 
 
 def test_importing_dcmppi_does_not_import_mujoco():
-    code = "import sys, dcmppi; assert not {'mujoco', 'dcmppi.video'} & set(sys.modules)"
+    code = "import sys, dcmppi; assert not {'mujoco', 'dcmppi.render.video'} & set(sys.modules)"
     subprocess.run([sys.executable, "-c", code], check=True)

@@ -12,8 +12,8 @@ import sys
 import time
 from collections.abc import Iterable
 
-from dcmppi.results import ResultsDB
-from dcmppi.runner import EpisodeSpec, run_episode
+from dcmppi.bench.results import ResultsDB
+from dcmppi.bench.runner import EpisodeSpec, run_episode
 
 EXECUTORS = ("local", "ray")
 _SINGLE_THREAD = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}

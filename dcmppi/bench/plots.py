@@ -5,30 +5,16 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from dcmppi.report import _controller_order, _noise_order, summarize
-
-COLORS = {"mppi": "tab:red", "tube": "tab:orange", "clustered": "tab:blue", "dc": "tab:green"}
-
-
-def _pyplot():
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError as e:
-        raise RuntimeError(
-            "plots need matplotlib: pip install 'dcmppi[plots]' (or pass --no-plots)"
-        ) from e
-    return plt
+from dcmppi.bench.stats import controller_order, noise_order, summarize
+from dcmppi.render.draw import COLORS, draw_world, pyplot
 
 
 def report_plots(rows: list[dict], config: dict, out: Path) -> list[str]:
     """Write failure_rates.png, controller_time.png and paths.png; return their names."""
-    plt = _pyplot()
+    plt = pyplot()
     stats = summarize(rows)
-    noises = sorted({n for n, _ in stats}, key=_noise_order)
-    controllers = sorted({c for _, c in stats}, key=_controller_order)
+    noises = sorted({n for n, _ in stats}, key=noise_order)
+    controllers = sorted({c for _, c in stats}, key=controller_order)
     width = 0.8 / len(controllers)
 
     fig, ax = plt.subplots(figsize=(7, 4))
@@ -71,10 +57,10 @@ def report_plots(rows: list[dict], config: dict, out: Path) -> list[str]:
 
 def plot_paths(config: dict, index: int, noise: str, controllers, path: Path) -> None:
     """Re-run environment `index` under each controller (deterministic) and draw the paths."""
-    from dcmppi.experiments import get_experiment
-    from dcmppi.runner import EpisodeSpec, make_env, run_episode
+    from dcmppi.bench.experiments import get_experiment
+    from dcmppi.bench.runner import EpisodeSpec, make_env, run_episode
 
-    plt = _pyplot()
+    plt = pyplot()
     exp = dataclasses.replace(
         get_experiment(config["experiment"]),
         base_seed=config["base_seed"],
@@ -96,24 +82,3 @@ def plot_paths(config: dict, index: int, noise: str, controllers, path: Path) ->
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
-
-
-def draw_world(ax, obs) -> None:
-    """Static and moving cylinders, start and goal of a task observation, to scale."""
-    from matplotlib.patches import Circle
-
-    for x, y, r in obs["static_obstacles"]:
-        if r > 0:
-            ax.add_patch(Circle((x, y), r, color="0.35"))
-    for x, y, _, r in obs["moving_obstacles"]:
-        ax.add_patch(Circle((x, y), r, color="tab:purple", alpha=0.4))
-    x0, y0 = obs["robot_pose"][:2]
-    ax.plot(x0, y0, "o", color="magenta", ms=8, label="start")
-    ax.plot(*obs["goal"], "*", color="green", ms=16, label="goal")
-    xmin, ymin, xmax, ymax = obs["map_bounds"]
-    ax.set_xlim(xmin, xmax)
-    ax.set_ylim(ymin, ymax)
-    ax.set_aspect("equal")
-    ax.grid(alpha=0.3)
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")

@@ -1,8 +1,10 @@
 """Videos of benchmark episodes with the controller's reasoning drawn in.
 
-    record_episode(EpisodeSpec("crossing", "dc"), "dc.mp4")                 # one episode
-    compare([EpisodeSpec("crossing", c) for c in ("mppi", "dc")], "cmp.mp4")  # side by side
+        record_episode(Episode(EpisodeSpec("crossing", "dc")), "dc.mp4")              # one episode
+    compare([Episode(EpisodeSpec("crossing", c)) for c in ("mppi", "dc")], "cmp.mp4")  # tiled
 
+An episode is any object with `spec`, `env`, `controller`, `time_step`, `done`, `ctrl_s`,
+`step()` and `result()` (dcmppi.bench.runner.Episode): this package drives it, never builds it.
 Frames go straight to the encoder (memory does not grow with the episode); one renderer per
 episode and camera serves all of its frames.
 """
@@ -14,16 +16,15 @@ import time
 
 import numpy as np
 
-from dcmppi import video
-from dcmppi.overlay import Overlay
-from dcmppi.runner import Episode, EpisodeSpec
+from dcmppi.render import video
+from dcmppi.render.overlay import Overlay
 
 
 class _Tile:
     """One episode, its renderer and its overlay."""
 
-    def __init__(self, spec: EpisodeSpec, width: int, height: int, camera: str, overlay: bool):
-        self.episode = Episode(spec)
+    def __init__(self, episode, width: int, height: int, camera: str, overlay: bool):
+        self.episode = episode
         self.camera = camera
         self.renderer = video.Renderer(self.episode.env.physics.model.ptr, width, height)
         self.overlay = Overlay(self.episode.controller) if overlay else None
@@ -52,7 +53,7 @@ class _Tile:
 
 
 def compare(
-    specs: list[EpisodeSpec],
+    episodes: list,
     path,
     camera: str = "top",
     width: int | None = None,
@@ -60,27 +61,28 @@ def compare(
     overlay: bool = True,
     progress: bool = True,
 ) -> list[dict]:
-    """Run `specs` in lockstep and write their frames side by side into one video.
+    """Run `episodes` in lockstep and write their frames side by side into one video.
 
     Args:
-      specs: episodes to show, left to right (usually one environment, several controllers).
+      episodes: episodes just started (dcmppi.bench.runner.Episode), left to right (usually
+        one environment, several controllers).
       path: .mp4 or .gif.
       camera: "top" or "chase".
       width, height: size of one tile (default width: 1280 for one tile, else 640).
       overlay: draw rollouts, clusters, plan, trail and obstacle futures.
     Returns:
-      the metrics of each episode (as `dcmppi.runner.run_episode`).
+      the metrics of each episode (as `dcmppi.bench.runner.run_episode`).
     """
-    if not specs:
+    if not episodes:
         raise ValueError("compare needs at least one episode")
     if camera not in video.CAMERAS:
         raise ValueError(f"camera must be one of {video.CAMERAS}, got {camera!r}")
-    width = width or (1280 if len(specs) == 1 else 640)
+    width = width or (1280 if len(episodes) == 1 else 640)
     tiles = []
     start = time.monotonic()
     try:
-        for spec in specs:
-            tiles.append(_Tile(spec, width, height, camera, overlay))
+        for episode in episodes:
+            tiles.append(_Tile(episode, width, height, camera, overlay))
         fps = 1.0 / tiles[0].episode.env.control_timestep()
         with video.VideoWriter(path, width * len(tiles), height, fps) as writer:
             while True:
@@ -100,9 +102,9 @@ def compare(
     return [tile.episode.result() for tile in tiles]
 
 
-def record_episode(spec: EpisodeSpec, path, camera: str = "top", **kwargs) -> dict:
+def record_episode(episode, path, camera: str = "top", **kwargs) -> dict:
     """Run one episode and write its video with the controller overlay; returns its metrics."""
-    return compare([spec], path, camera, **kwargs)[0]
+    return compare([episode], path, camera, **kwargs)[0]
 
 
 def _progress(frames: int, tiles, start: float, end: str = "") -> None:

@@ -4,7 +4,8 @@
     ctrl.reset(seed=1)
     omega = ctrl.act(state, goal, static, moving, obstacle_model)
 
-Every controller accepts the shared parameters (SPEC section 3 defaults from dcmppi.defaults):
+Every controller accepts the shared parameters (SPEC section 3 defaults from
+dcmppi.control.defaults):
 v, r_min, robot_radius, dt, K, N, lambda_, Sigma, alpha, beta, P, seed, plus its own.
 """
 

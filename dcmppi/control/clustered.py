@@ -11,9 +11,9 @@ Features (SPEC section 2), scaled so one DBSCAN radius works at every step:
 DBSCAN: radius dbscan_eps, min_samples dbscan_min_samples; noise points (label -1) belong to no
 cluster; with no cluster at all the step falls back to Alg. 1 over all samples. Each cluster's
 control sequence is rolled out without noise and the one with the least cost J is applied.
-Labels from dcmppi.dbscan: sklearn's labels, compiled with numba for two features (~50x faster),
-sklearn itself for the N + 1 features of time-varying perturbations. The per-cluster weights
-and updates are numba loops too (one pass over the clustered samples).
+Labels from dcmppi.control.dbscan: sklearn's labels, compiled with numba for two features
+(~50x faster), sklearn itself for the N + 1 features of time-varying perturbations. The
+per-cluster weights and updates are numba loops too (one pass over the clustered samples).
 """
 
 import numba

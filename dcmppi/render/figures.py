@@ -1,7 +1,7 @@
 """The paper's Fig. 2 and Fig. 4 for one control step of a task.
 
-Every controller plans the first step of the same episode (same observation, same seed,
-hence the same K perturbations); the figures show
+Every controller has planned the same step (same observation, same seed, hence the same K
+perturbations: `dcmppi.bench.snapshot.first_step`); the figures show
 
 - `values.png`: the value exp(-(J - min J) / lambda) of each sampled perturbation against
   the perturbation, coloured by DBSCAN cluster (grey: noise, or no clustering), with the
@@ -15,74 +15,13 @@ shape, which is what the figure is about, is unchanged.
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
 import numpy as np
 
-from dcmppi.dynamics import rollout
-from dcmppi.overlay import cluster_rgb
-from dcmppi.plots import COLORS, _pyplot, draw_world
-from dcmppi.runner import EpisodeSpec, act, make_controller, make_env
-from dcmppi.tasks.worlds import dubins_pose
-
-FIGURE_CONTROLLERS = ("mppi", "clustered", "dc")
-
-
-def straight_blocked(observation, horizon: float, robot_radius: float) -> bool:
-    """Whether driving straight for `horizon` seconds meets an obstacle.
-
-    Static cylinders stay put; moving ones are predicted at the mean of the known Gaussian.
-    """
-    x, y, theta = observation["robot_pose"]
-    v_mean, _, omega_mean, _ = observation["obstacle_model"]
-    t = np.linspace(0.0, horizon, 51)
-    robot = np.stack([x + t * np.cos(theta), y + t * np.sin(theta)], axis=-1)  # (T, 2)
-    static = observation["static_obstacles"]
-    static = static[static[:, 2] > 0]
-    d = np.linalg.norm(robot[:, None] - static[None, :, :2], axis=-1) - static[:, 2]
-    if (d <= robot_radius).any():
-        return True
-    for ox, oy, heading, r in observation["moving_obstacles"]:
-        pose = dubins_pose((ox, oy, heading), v_mean, omega_mean, t)
-        if (np.hypot(*(robot - pose[:, :2]).T) <= r + robot_radius).any():
-            return True
-    return False
-
-
-def first_step(spec: EpisodeSpec, controllers=FIGURE_CONTROLLERS, approach: int | None = None):
-    """Each controller's first step on `spec`'s episode, once an obstacle matters.
-
-    The robot first drives straight (omega = 0) for `approach` control steps, by default
-    until driving straight would meet an obstacle within 60 % of the horizon: the moment
-    of the paper's Fig. 2 and 4, when the straight reference runs into the obstacle. Then
-    every controller plans from that same observation with the straight warm start and the
-    same seed.
-
-    Returns:
-      (observation, {name: (controller, action)}, steps driven straight), where action is
-      the applied turn rate.
-    """
-    env = make_env(spec)
-    time_step = env.reset()
-    probe = make_controller(spec)
-    horizon = probe.N * probe.dt
-    steps = 0
-    while not time_step.last() and (
-        steps < approach if approach is not None
-        else not straight_blocked(time_step.observation, 0.6 * horizon, probe.robot_radius)
-    ):  # fmt: skip
-        time_step = env.step(np.zeros(1))
-        steps += 1
-    if time_step.last():
-        raise ValueError(f"the episode ended ({env.task.outcome}) while approaching")
-    observation = time_step.observation
-    out = {}
-    for name in controllers:
-        controller = make_controller(dataclasses.replace(spec, controller=name))
-        controller.reset()
-        out[name] = (controller, float(act(controller, observation)[0]))
-    return observation, out, steps
+from dcmppi.control.dynamics import rollout
+from dcmppi.render.draw import COLORS, draw_world, pyplot
+from dcmppi.render.overlay import cluster_rgb
 
 
 def plan_cost(controller, state) -> float:
@@ -92,19 +31,21 @@ def plan_cost(controller, state) -> float:
     return float(J[0])
 
 
-def write_figures(
-    spec: EpisodeSpec, out_dir, controllers=FIGURE_CONTROLLERS, approach: int | None = None
-) -> dict:
-    """Write values.png and rollouts.png for the step of `first_step(spec, ..., approach)`.
+def write_figures(observation, runs, out_dir, title: str) -> dict:
+    """Write values.png and rollouts.png of one planning step.
 
+    Args:
+      observation: the task observation every controller planned from.
+      runs: {name: (controller, applied action)} after each controller's step, for example
+        from `dcmppi.bench.snapshot.first_step`.
+      out_dir: folder for the PNG files.
+      title: what the step is (task and seed), for the figure titles.
     Returns:
-      {"files": [paths], "actions": {controller: applied turn rate marked in the figure},
-       "approach": control steps driven straight before the planned step}.
+      {"files": [paths], "actions": {controller: applied turn rate marked in the figure}}.
     """
-    plt = _pyplot()
+    plt = pyplot()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    observation, runs, steps = first_step(spec, controllers, approach)
     state = observation["robot_pose"]
 
     fig, axes = plt.subplots(1, len(runs), figsize=(4.2 * len(runs), 3.6), sharey=True)
@@ -125,10 +66,7 @@ def write_figures(
         ax.legend(loc="upper right", fontsize=8)
     axes[0].set_ylabel("value exp(-(J - min J) / lambda)")
     t = observation["robot_pose"]
-    fig.suptitle(
-        f"{spec.task}, seed {spec.seed}: value of each sampled perturbation at "
-        f"x = ({t[0]:.1f}, {t[1]:.1f})"
-    )
+    fig.suptitle(f"{title}: value of each sampled perturbation at x = ({t[0]:.1f}, {t[1]:.1f})")
     fig.tight_layout()
     values_png = out / "values.png"
     fig.savefig(values_png, dpi=120)
@@ -162,7 +100,6 @@ def write_figures(
     return {
         "files": [str(values_png), str(rollouts_png)],
         "actions": {name: action for name, (_, action) in runs.items()},
-        "approach": steps,
     }
 
 

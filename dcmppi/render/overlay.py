@@ -6,7 +6,7 @@
 - the executed path as a trail;
 - for `dc`, the sampled futures of the nearby moving obstacles, faint.
 
-Every geom goes through `dcmppi.video.add_polyline`, which stops at `scene.maxgeom`; the
+Every geom goes through `dcmppi.render.video.add_polyline`, which stops at `scene.maxgeom`; the
 subsampling below keeps one frame to about 1,500 geoms whatever K, N and P are.
 """
 
@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from dcmppi.dynamics import rollout
-from dcmppi.video import add_polyline
+from dcmppi.control.dynamics import rollout
+from dcmppi.render.video import add_polyline
 
 # Tableau-like cluster colours; noise and unclustered samples are grey.
 PALETTE = np.array(
@@ -40,7 +40,7 @@ def cluster_rgb(labels: np.ndarray | None, K: int) -> np.ndarray:
 
 
 class Overlay:
-    """Scene decorator for `dcmppi.video.Renderer.render(..., decorate=overlay)`.
+    """Scene decorator for `dcmppi.render.video.Renderer.render(..., decorate=overlay)`.
 
     Args:
       controller: a dcmppi controller; its `diagnostics` are read at every frame.

@@ -11,8 +11,8 @@ import dataclasses
 
 import numpy as np
 
-from dcmppi.defaults import NOISE_PROFILES
-from dcmppi.runner import EpisodeSpec
+from dcmppi.bench.runner import EpisodeSpec
+from dcmppi.control.defaults import NOISE_PROFILES
 
 
 @dataclasses.dataclass(frozen=True)

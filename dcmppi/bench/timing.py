@@ -26,9 +26,9 @@ import time
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from . import defaults
-from .controllers import make_controller
-from .dynamics import dubins_step
+from dcmppi.control import defaults
+from dcmppi.control.controllers import make_controller
+from dcmppi.control.dynamics import dubins_step
 
 FOREST_CLUSTERS = 60
 

@@ -1,0 +1,72 @@
+"""One planning step of several controllers from the same observation (paper Fig. 2 and 4).
+
+The robot drives straight until an obstacle matters, then every controller plans that step with
+the same seed, hence the same K perturbations. `dcmppi.render.figures` draws the result.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from dcmppi.bench.runner import EpisodeSpec, act, make_controller, make_env
+from dcmppi.tasks.worlds import dubins_pose
+
+FIGURE_CONTROLLERS = ("mppi", "clustered", "dc")
+
+
+def straight_blocked(observation, horizon: float, robot_radius: float) -> bool:
+    """Whether driving straight for `horizon` seconds meets an obstacle.
+
+    Static cylinders stay put; moving ones are predicted at the mean of the known Gaussian.
+    """
+    x, y, theta = observation["robot_pose"]
+    v_mean, _, omega_mean, _ = observation["obstacle_model"]
+    t = np.linspace(0.0, horizon, 51)
+    robot = np.stack([x + t * np.cos(theta), y + t * np.sin(theta)], axis=-1)  # (T, 2)
+    static = observation["static_obstacles"]
+    static = static[static[:, 2] > 0]
+    d = np.linalg.norm(robot[:, None] - static[None, :, :2], axis=-1) - static[:, 2]
+    if (d <= robot_radius).any():
+        return True
+    for ox, oy, heading, r in observation["moving_obstacles"]:
+        pose = dubins_pose((ox, oy, heading), v_mean, omega_mean, t)
+        if (np.hypot(*(robot - pose[:, :2]).T) <= r + robot_radius).any():
+            return True
+    return False
+
+
+def first_step(spec: EpisodeSpec, controllers=FIGURE_CONTROLLERS, approach: int | None = None):
+    """Each controller's first step on `spec`'s episode, once an obstacle matters.
+
+    The robot first drives straight (omega = 0) for `approach` control steps, by default
+    until driving straight would meet an obstacle within 60 % of the horizon: the moment
+    of the paper's Fig. 2 and 4, when the straight reference runs into the obstacle. Then
+    every controller plans from that same observation with the straight warm start and the
+    same seed.
+
+    Returns:
+      (observation, {name: (controller, action)}, steps driven straight), where action is
+      the applied turn rate.
+    """
+    env = make_env(spec)
+    time_step = env.reset()
+    probe = make_controller(spec)
+    horizon = probe.N * probe.dt
+    steps = 0
+    while not time_step.last() and (
+        steps < approach if approach is not None
+        else not straight_blocked(time_step.observation, 0.6 * horizon, probe.robot_radius)
+    ):  # fmt: skip
+        time_step = env.step(np.zeros(1))
+        steps += 1
+    if time_step.last():
+        raise ValueError(f"the episode ended ({env.task.outcome}) while approaching")
+    observation = time_step.observation
+    out = {}
+    for name in controllers:
+        controller = make_controller(dataclasses.replace(spec, controller=name))
+        controller.reset()
+        out[name] = (controller, float(act(controller, observation)[0]))
+    return observation, out, steps

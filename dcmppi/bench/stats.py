@@ -1,0 +1,104 @@
+"""Statistics of episode rows: failure rates with Wilson intervals, paired McNemar tests.
+
+Shared by the report's tables and its plots.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+
+from dcmppi.control.defaults import NOISE_PROFILES
+
+Z95 = 1.959963984540054
+
+
+def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float]:
+    """95 % Wilson score interval for a proportion k / n, as fractions."""
+    if n == 0:
+        return (math.nan, math.nan)
+    p = k / n
+    denom = 1 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    lo = 0.0 if k == 0 else max(0.0, centre - half)  # exact at the ends, not 1 - 1e-16
+    hi = 1.0 if k == n else min(1.0, centre + half)
+    return lo, hi
+
+
+def mcnemar_exact(b: int, c: int) -> float:
+    """Two-sided exact McNemar p-value for discordant pair counts b and c."""
+    n = b + c
+    if n == 0:
+        return 1.0
+    tail = sum(math.comb(n, i) for i in range(min(b, c) + 1)) / 2**n
+    return min(1.0, 2 * tail)
+
+
+def summarize(rows: list[dict]) -> dict[tuple[str, str], dict]:
+    """Per (noise, controller): episodes, errors, collisions, failures, CI, ms/step."""
+    groups = defaultdict(list)
+    for r in rows:
+        groups[(r["noise"], r["controller"])].append(r)
+    out = {}
+    for key, group in groups.items():
+        ok = [r for r in group if r["status"] == "ok"]
+        n = len(ok)
+        failures = sum(r["failure"] for r in ok)
+        steps = sum(r["steps"] for r in ok)
+        out[key] = {
+            "episodes": n,
+            "errors": len(group) - n,
+            "collisions": sum(r["collision"] for r in ok),
+            "failures": failures,
+            "failure_pct": 100 * failures / n if n else math.nan,
+            "failure_ci_pct": tuple(100 * x for x in wilson(failures, n)),
+            "ctrl_ms": (sum(r["ctrl_ms_mean"] * r["steps"] for r in ok) / steps)
+            if steps
+            else math.nan,
+            "goal_time_s": mean([r["time_to_goal"] for r in ok if r["outcome"] == "goal"]),
+            "path_m": mean([r["path_length"] for r in ok if r["outcome"] == "goal"]),
+        }
+    return out
+
+
+def paired(rows: list[dict], noise: str, a: str, b: str) -> dict | None:
+    """McNemar on collisions between controllers a and b over environments both finished."""
+    by = {(r["controller"], r["env_index"]): r for r in rows if r["noise"] == noise}
+    envs = [
+        i
+        for (c, i), r in by.items()
+        if c == a and r["status"] == "ok" and by.get((b, i), {}).get("status") == "ok"
+    ]
+    if not envs:
+        return None
+    only_a = sum(by[(a, i)]["collision"] and not by[(b, i)]["collision"] for i in envs)
+    only_b = sum(by[(b, i)]["collision"] and not by[(a, i)]["collision"] for i in envs)
+    return {
+        "pairs": len(envs),
+        "only_a": only_a,
+        "only_b": only_b,
+        "p": mcnemar_exact(only_a, only_b),
+    }
+
+
+def mean(xs):
+    """Mean of the values that are not None (nan when none are)."""
+    xs = [x for x in xs if x is not None]
+    return sum(xs) / len(xs) if xs else math.nan
+
+
+def fmt(x) -> str:
+    """A paper figure, or '-' when the paper gives none."""
+    return "-" if x is None else f"{x:g}"
+
+
+def noise_order(noise: str) -> int:
+    """Sort key: the noise profiles in the paper's order, others after."""
+    return NOISE_PROFILES.index(noise) if noise in NOISE_PROFILES else len(NOISE_PROFILES)
+
+
+def controller_order(c: str) -> tuple:
+    """Sort key: mppi, tube, clustered, dc (the paper's rows), then others by name."""
+    order = ("mppi", "tube", "clustered", "dc")
+    return (order.index(c) if c in order else len(order), c)

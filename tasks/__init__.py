@@ -3,8 +3,9 @@
     from dcmppi import tasks
     env = tasks.load("forest", task_kwargs={"random": 0, "noise": "control"})
 
-Every task takes `random`, `noise` ("none" | "control" | "process"), the robot's `v`, `r_min`,
-`robot_radius`, the control-noise variance `Sigma`, the process-noise stds
+Every task takes `random`, `noise` ("none" | "control" | "process"), the robot's `agent`
+("dubins", "unicycle", "holonomic") with its parameters (dubins: v, r_min; others: v_max,
+omega_max) and `robot_radius`, the control-noise variances `Sigma`, the process-noise stds
 `process_velocity_std` and `process_yaw_rate_std`, `time_limit` [s], plus its own kwargs.
 """
 
@@ -16,6 +17,8 @@ import inspect  # noqa: E402
 
 from dm_control.utils import containers  # noqa: E402
 
+from dcmppi.control.agents import agent_param_names  # noqa: E402
+
 from .crowd import Crowd  # noqa: E402
 from .forest import Forest  # noqa: E402
 from .layout import Layout  # noqa: E402
@@ -25,7 +28,12 @@ from .two_valley import Blocked, Crossing  # noqa: E402
 SUITE = containers.TaggedTasks()
 
 
+_CLASSES = {}
+
+
 def _register(name, cls, description, *tags):
+    _CLASSES[name] = cls
+
     def factory(task_kwargs=None, environment_kwargs=None):
         return _build(cls, task_kwargs, environment_kwargs)
 
@@ -84,14 +92,22 @@ def load(name, task_kwargs=None, environment_kwargs=None):
 
 
 def task_kwargs(cls) -> list[str]:
-    """Names of the keyword arguments a task class accepts."""
+    """Names of the keyword arguments a task class accepts (its own, every task's, and the
+    agents' parameters, which go to the task's agent)."""
     names = []
     for klass in (cls, Navigation):
         for p in inspect.signature(klass.__init__).parameters.values():
             if p.kind == p.KEYWORD_ONLY or p.kind == p.POSITIONAL_OR_KEYWORD:
                 if p.name != "self" and p.name not in names:
                     names.append(p.name)
-    return names
+    return names + [n for n in agent_param_names() if n not in names]
+
+
+def default_agent(name) -> str:
+    """The agent task `name` simulates unless task_kwargs say otherwise."""
+    if name not in SUITE:
+        raise ValueError(f"unknown task {name!r}; valid tasks: {', '.join(TASKS)}")
+    return _CLASSES[name].default_agent
 
 
 def _build(cls, kwargs, environment_kwargs):
@@ -108,6 +124,7 @@ def _build(cls, kwargs, environment_kwargs):
 __all__ = [
     "SUITE",
     "TASKS",
+    "default_agent",
     "load",
     "task_kwargs",
     "Navigation",

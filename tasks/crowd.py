@@ -8,8 +8,12 @@ from . import navigation, worlds
 class Crowd(navigation.Navigation):
     """Moving cylinders with uniform random speeds and turn rates, reflecting off the walls.
 
-    The observation's `obstacle_model` is the Gaussian with the uniforms' mean and std.
+    The observation's `obstacle_model` is the Gaussian with the uniforms' mean and std. The
+    robot is the velocity-controlled `holonomic` agent by default (paper Sec. IV-B); with
+    agent="dubins" the crowd is the hard variant (a constant-speed car cannot stop).
     """
+
+    default_agent = "holonomic"
 
     def __init__(
         self,

@@ -1,10 +1,11 @@
-"""The shared plant and task of every benchmark world: a Dubins robot among cylinders.
+"""The shared plant and task of every benchmark world: a robot among cylinders.
 
-`Physics` owns the MuJoCo model (models/arena.xml plus a fixed number of obstacle slots), moves
-the moving obstacles every physics substep, and records robot-obstacle contacts and the
-analytic clearance. `Navigation` is the dm_control task: it draws a `worlds.World` per
-episode, maps the turn-rate action to the actuators, injects noise, and ends the episode on
-goal, collision or time limit. Subclasses only say how a world is drawn.
+`Physics` owns the MuJoCo model (models/arena.xml with one robot of models/robots/ and a fixed
+number of obstacle slots), moves the moving obstacles every physics substep, and records
+robot-obstacle contacts and the analytic clearance. `Navigation` is the dm_control task: it
+draws a `worlds.World` per episode, maps the agent's controls to the actuators, injects noise,
+and ends the episode at the goal, on a collision, when the robot leaves the map, or at the time
+limit. Subclasses only say how a world is drawn.
 """
 
 import collections
@@ -22,8 +23,9 @@ from dm_control.suite import base
 from dm_env import specs
 
 from dcmppi.control import defaults
+from dcmppi.control.agents import make_agent
 
-from . import worlds
+from . import robots, worlds
 
 PROCESS_VELOCITY_STD = 0.1  # [m/s] std of the planar velocity disturbance, per axis
 PROCESS_YAW_RATE_STD = 0.1  # [rad/s] std of the yaw-rate disturbance
@@ -32,12 +34,23 @@ PARKED = -1000.0  # [m] x, y of unused static slots (also disabled and hidden)
 _HIDDEN_GROUP = 3  # geom group that MuJoCo's renderer hides by default
 
 
+ROBOT_PREFIX = "robot/"  # names of the attached robot file's elements get this prefix
+ROBOT_FILE_RADIUS = 0.5  # [m] hull radius the robot files are drawn at
+
+
 @functools.lru_cache(maxsize=32)
-def _compiled_model(num_static, num_moving, robot_radius) -> mujoco.MjModel:
-    """The arena with num_static world-geom slots and num_moving mocap-body slots."""
-    xml = resources.files("dcmppi.models").joinpath("arena.xml").read_text()
-    spec = mujoco.MjSpec.from_string(xml)
-    spec.geom("robot").size[0] = robot_radius
+def _compiled_model(robot_file, num_static, num_moving, robot_radius) -> mujoco.MjModel:
+    """The arena with the robot of `robot_file`, num_static world-geom slots and num_moving
+    mocap-body slots."""
+    models = resources.files("dcmppi.models")
+    spec = mujoco.MjSpec.from_string(models.joinpath("arena.xml").read_text())
+    robot = mujoco.MjSpec.from_string(models.joinpath("robots", robot_file).read_text())
+    scale = robot_radius / ROBOT_FILE_RADIUS
+    for geom in robot.geoms:  # drawn geoms follow the hull's radius
+        geom.pos = np.asarray(geom.pos) * scale
+        geom.size = np.asarray(geom.size) * (scale if geom.name != "hull" else 1.0)
+    robot.geom("hull").size[0] = robot_radius
+    spec.attach(robot, prefix=ROBOT_PREFIX, frame=spec.worldbody.add_frame())
     static_class = spec.find_default("static_obstacle")
     for i in range(num_static):
         spec.worldbody.add_geom(
@@ -78,9 +91,12 @@ class Physics(dm_mujoco.Physics):
     """
 
     @classmethod
-    def for_slots(cls, num_static, num_moving, bounds, robot_radius=defaults.ROBOT_RADIUS):
-        """A new Physics with fixed obstacle slots and the top camera/floor fitted to bounds."""
-        model = copy.copy(_compiled_model(num_static, num_moving, float(robot_radius)))
+    def for_slots(
+        cls, num_static, num_moving, bounds, robot_radius=defaults.ROBOT_RADIUS, robot="dubins.xml"
+    ):
+        """A new Physics with the robot of file `robot`, fixed obstacle slots, and the top
+        camera and floor fitted to bounds."""
+        model = copy.copy(_compiled_model(robot, num_static, num_moving, float(robot_radius)))
         physics = cls.from_model(core.MjModel(model))
         physics._bind(num_static, num_moving, float(robot_radius))
         physics._fit_view(np.asarray(bounds, dtype=np.float64))
@@ -90,7 +106,7 @@ class Physics(dm_mujoco.Physics):
         m, d = self.model.ptr, self.data.ptr
         self._m, self._d = m, d
         self.robot_radius = robot_radius
-        self._robot_geom = m.geom("robot").id
+        self._robot_geom = m.geom(ROBOT_PREFIX + "hull").id
         first = m.geom("static_0").id if num_static else 0
         self._static_ids = np.arange(first, first + num_static)
         self._moving_ids = np.array([m.geom(f"moving_{i}").id for i in range(num_moving)], int)
@@ -101,7 +117,7 @@ class Physics(dm_mujoco.Physics):
         self._mocap = slice(mocap[0], mocap[-1] + 1) if num_moving else slice(0, 0)
         self._qpos, self._qvel, self._ctrl = d.qpos, d.qvel, d.ctrl
         self._qfrc_applied = d.qfrc_applied
-        self._gain = m.actuator_gainprm[:, 0].copy()  # kv of forward, lateral, turn
+        self._gain = m.actuator_gainprm[:, 0].copy()  # kv of the planar and turn actuators
         self._mocap_xy = d.mocap_pos[self._mocap, :2]
         self._mocap_quat = d.mocap_quat[self._mocap]
         self._moving = None
@@ -130,8 +146,11 @@ class Physics(dm_mujoco.Physics):
 
     # Episode set-up -------------------------------------------------------------------------
 
-    def set_world(self, world: worlds.World, v):
-        """Places robot (moving at speed v), goal and obstacles of `world`; clears the records."""
+    def set_world(self, world: worlds.World, velocity, command, top_speed):
+        """Places robot, goal and obstacles of `world`; clears the records.
+
+        velocity: the robot's world-frame (vx, vy, yaw rate) at the start; command: the three
+        actuator targets at the start; top_speed: the robot's fastest planar speed [m/s]."""
         m = self._m
         static = world.static
         solid = static[:, 2] > 0
@@ -166,13 +185,13 @@ class Physics(dm_mujoco.Physics):
         else:
             self._moving = None
         # Fastest closing speed robot-obstacle, with room for disturbances [m/s].
-        top_speed = np.abs(world.moving_speed).max() if len(moving) else 0.0
-        self._speed_bound = 2.0 * v + 1.0 + top_speed
+        obstacle_speed = np.abs(world.moving_speed).max() if len(moving) else 0.0
+        self._speed_bound = 2.0 * top_speed + 1.0 + obstacle_speed
 
-        x, y, yaw = world.start
+        x, y, _ = world.start
         self._qpos[:3] = world.start
-        self._qvel[:3] = [v * np.cos(yaw), v * np.sin(yaw), 0.0]
-        self._ctrl[:] = [v, 0.0, 0.0]
+        self._qvel[:3] = velocity
+        self._ctrl[:] = command
         self._qfrc_applied[:] = 0.0
         self.collided = False
         self.first_contact = None
@@ -186,11 +205,9 @@ class Physics(dm_mujoco.Physics):
 
     # Control --------------------------------------------------------------------------------
 
-    def set_command(self, v, omega):
-        """Actuator targets: forward speed v, lateral speed 0, turn rate omega."""
-        self._ctrl[0] = v
-        self._ctrl[1] = 0.0
-        self._ctrl[2] = omega
+    def set_command(self, command):
+        """The three actuator targets (see tasks/robots.py)."""
+        self._ctrl[:] = command
 
     def set_disturbance(self, velocity):
         """Holds generalized forces that offset the robot's (vx, vy, yaw rate) by `velocity`.
@@ -297,37 +314,44 @@ class Physics(dm_mujoco.Physics):
 
 
 class Navigation(base.Task):
-    """Drive a constant-speed Dubins robot to the goal without touching an obstacle.
+    """Drive a robot to the goal without touching an obstacle or leaving the map.
 
-    Action: (1,) turn rate omega, clipped to [-v / r_min, v / r_min]; the plant is commanded
-    forward speed v, lateral speed 0, turn rate omega (+ noise).
-    Reward: 1 on the step that reaches the goal, else 0. Discount: 0 on goal and collision
-    (terminal), 1 on the time limit (truncation).
-    Noise (drawn from the task's random): "control" adds N(0, Sigma) to the applied turn rate
-    each control step; "process" adds that, plus velocity disturbances (std
-    process_velocity_std per planar axis, process_yaw_rate_std for the yaw rate) held for the
-    control step as forces that the actuators have to fight.
+    The robot is an agent of SPEC section 5 (`agent`: "dubins" by default, "unicycle",
+    "holonomic"; its parameters such as v_max go alongside), simulated by its MuJoCo plant
+    (tasks/robots.py).
+    Action: (nu,) the agent's controls (dubins: the turn rate omega; unicycle: v, omega;
+    holonomic: u_x, u_y, u_theta). An action outside the spec is clipped to it, as dm_control
+    does, and a holonomic velocity beyond v_max is scaled back onto |(u_x, u_y)| = v_max.
+    Reward: 1 on the step that reaches the goal, else 0. Discount: 0 at the goal, on a collision
+    and on leaving the map (terminal); 1 at the time limit (truncation).
+    Noise (drawn from the task's random): "control" adds N(0, Sigma) to each applied control
+    every control step (Sigma per control, in its own units; default: the agent's sampling
+    variances); "process" adds that, plus velocity disturbances (std process_velocity_std per
+    planar axis, process_yaw_rate_std for the yaw rate) held for the control step as forces
+    that the actuators have to fight.
     """
+
+    default_agent = "dubins"
 
     def __init__(
         self,
         random=None,
         noise="none",
-        v=defaults.V,
-        r_min=defaults.R_MIN,
+        agent=None,
         robot_radius=defaults.ROBOT_RADIUS,
-        Sigma=defaults.SIGMA,
+        Sigma=None,
         process_velocity_std=PROCESS_VELOCITY_STD,
         process_yaw_rate_std=PROCESS_YAW_RATE_STD,
         time_limit=None,
+        **agent_params,
     ):
         """Args: see the class docstring; time_limit [s] defaults to the task's own."""
         if noise not in defaults.NOISE_PROFILES:
             raise ValueError(f"noise must be one of {defaults.NOISE_PROFILES}, got {noise!r}")
-        self.v = check_positive("v", v)
-        self.r_min = check_positive("r_min", r_min)
+        self.agent = make_agent(self.default_agent if agent is None else agent, **agent_params)
+        self.plant = robots.plant(self.agent)
         self.robot_radius = check_positive("robot_radius", robot_radius)
-        self.Sigma = check_positive("Sigma", Sigma, allow_zero=True)
+        self.Sigma = self.agent.variances(Sigma, allow_zero=True)
         self.process_std = np.array(
             [
                 check_positive("process_velocity_std", process_velocity_std, allow_zero=True),
@@ -337,7 +361,6 @@ class Navigation(base.Task):
         )
         self._time_limit = None if time_limit is None else check_positive("time_limit", time_limit)
         self.noise = noise
-        self.omega_max = defaults.omega_max(self.v, self.r_min)
         super().__init__(random=random)
         self._noise_random = np.random.RandomState(0)
         self.world = None
@@ -360,16 +383,17 @@ class Navigation(base.Task):
 
     @property
     def time_limit(self) -> float:
-        """Episode time limit [s]."""
+        """Episode time limit [s]: by default 3 x the time to drive around the map at the
+        agent's top speed."""
         if self._time_limit is not None:
             return self._time_limit
-        return worlds.default_time_limit(self.map_bounds, self.v)
+        return worlds.default_time_limit(self.map_bounds, self.agent.max_speed)
 
     # Results ----------------------------------------------------------------------------------
 
     @property
     def outcome(self):
-        """None while running, then "goal", "collision" or "time_limit"."""
+        """None while running, then "goal", "collision", "left_map" or "time_limit"."""
         return self._outcome
 
     @property
@@ -386,11 +410,14 @@ class Navigation(base.Task):
             raise RuntimeError(f"{type(self).__name__} drew a world of the wrong size")
         self.world = world
         self._noise_random = np.random.RandomState(noise_seed)
-        physics.set_world(world, self.v)
+        velocity = robots.start_velocity(self.agent, world.start[2])
+        command = self._command(self.agent.first_guess(world.start, world.goal, 1)[0])
+        physics.set_world(world, velocity, command, self.agent.max_speed)
         self._outcome = None
         self._min_clearance = physics.min_clearance
         self._observation = collections.OrderedDict(
             robot_pose=None,
+            robot_velocity=None,
             goal=world.goal,
             static_obstacles=world.static,
             moving_obstacles=None,
@@ -400,16 +427,23 @@ class Navigation(base.Task):
         )
         super().initialize_episode(physics)
 
+    def _command(self, u):
+        """Actuator targets of the controls u (nu,), already within the bounds."""
+        return self.plant.command(self.agent, u)
+
     def before_step(self, action, physics):
-        omega = np.asarray(action, dtype=np.float64).reshape(-1)
-        if omega.shape != (1,) or not np.isfinite(omega[0]):
-            raise ValueError(f"action must be a finite (1,) turn rate omega, got {action!r}")
-        omega = min(max(omega[0], -self.omega_max), self.omega_max)
+        u = np.asarray(action, dtype=np.float64).reshape(-1)
+        if u.shape != (self.agent.nu,) or not np.isfinite(u).all():
+            raise ValueError(
+                f"action must be {self.agent.nu} finite number(s) {self.agent.controls} "
+                f"(agent {self.agent.name!r}), got {action!r}"
+            )
+        u = self.agent.project(u[:, None], axis=0)[:, 0]
         if self.noise != "none":
-            omega += np.sqrt(self.Sigma) * self._noise_random.randn()
+            u = u + np.sqrt(self.Sigma) * self._noise_random.randn(self.agent.nu)
         if self.noise == "process":
             physics.set_disturbance(self.process_std * self._noise_random.randn(3))
-        physics.set_command(self.v, omega)
+        physics.set_command(self._command(u))
 
     def after_step(self, physics):
         self._min_clearance = physics.min_clearance
@@ -417,16 +451,22 @@ class Navigation(base.Task):
             return
         goal = self.world.goal if self.world is not None else None
         x, y = physics.robot_pose()[:2]
+        xmin, ymin, xmax, ymax = (
+            self.world.map_bounds if self.world is not None else self.map_bounds
+        )
         if physics.collided:
             self._outcome = "collision"
-        elif goal is not None and np.hypot(x - goal[0], y - goal[1]) <= defaults.GOAL_TOLERANCE:
+        elif np.hypot(x - goal[0], y - goal[1]) <= defaults.GOAL_TOLERANCE:
             self._outcome = "goal"
+        elif not (xmin <= x <= xmax and ymin <= y <= ymax):
+            self._outcome = "left_map"
         elif physics.time() >= self.time_limit - 0.5 * physics.timestep():
             self._outcome = "time_limit"
 
     def get_observation(self, physics):
         obs = self._observation.copy()
         obs["robot_pose"] = physics.robot_pose()
+        obs["robot_velocity"] = physics.robot_velocity()
         obs["moving_obstacles"] = physics.moving_obstacles()
         obs["clearance"] = np.array([physics.clearance()])
         return obs
@@ -440,11 +480,13 @@ class Navigation(base.Task):
         return 1.0 if self._outcome == "time_limit" else 0.0
 
     def action_spec(self, physics):
-        return specs.BoundedArray((1,), np.float64, -self.omega_max, self.omega_max, name="omega")
+        a = self.agent
+        return specs.BoundedArray((a.nu,), np.float64, a.lower, a.upper, name=",".join(a.controls))
 
     def observation_spec(self, physics):
         shapes = dict(
             robot_pose=(3,),
+            robot_velocity=(3,),
             goal=(2,),
             static_obstacles=(self.num_static, 3),
             moving_obstacles=(self.num_moving, 4),
@@ -478,7 +520,7 @@ def make_environment(task: Navigation, environment_kwargs=None) -> control.Envir
         )
     environment_kwargs.setdefault("control_timestep", defaults.DT)
     physics = Physics.for_slots(
-        task.num_static, task.num_moving, task.map_bounds, task.robot_radius
+        task.num_static, task.num_moving, task.map_bounds, task.robot_radius, task.plant.model
     )
     physics.model.opt.timestep = defaults.PHYSICS_TIMESTEP
     return control.Environment(physics, task, **environment_kwargs)

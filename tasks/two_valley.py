@@ -45,7 +45,7 @@ class Blocked(navigation.Navigation):
 class Crossing(navigation.Navigation):
     """One moving cylinder that reaches the robot's straight path just when the robot does.
 
-    If the robot drove straight at speed v, the obstacle's centre would be on the robot's
+    If the robot drove straight at its top speed, the obstacle's centre would be on the robot's
     centre at `meet_fraction` of the way, moving in direction `approach_angle` relative to
     the robot's heading (pi: head-on, the paper's Fig. 4; pi/2: from the right). The
     obstacle's start is found by running its Dubins arc backwards from that meeting.
@@ -75,7 +75,7 @@ class Crossing(navigation.Navigation):
     def generate_world(self, random):
         bounds = worlds.map_bounds()
         start, goal = _line(self.distance, bounds)
-        t_meet = self.meet_fraction * self.distance / self.v
+        t_meet = self.meet_fraction * self.distance / self.agent.max_speed
         meet = [
             *(start[:2] + [self.meet_fraction * self.distance, 0.0]),
             start[2] + self.approach_angle,

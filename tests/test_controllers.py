@@ -1,12 +1,15 @@
-"""Registry, parameters, determinism, diagnostics, analytic closed loop: all controllers."""
+"""Registry, parameters, determinism, diagnostics, analytic closed loop: every controller with
+every agent."""
 
 import numpy as np
 import pytest
 
 import dcmppi
-from dcmppi.control.dynamics import dubins_step
+from dcmppi.control.agents import make_agent
 
 NAMES = ["mppi", "clustered", "dc", "tube"]
+AGENTS = ["dubins", "unicycle", "holonomic"]
+PERTURBATIONS = ["constant", "time_varying", "mixed"]
 MODEL = np.array([1.0, 0.29, 0.0, 0.29])
 
 
@@ -24,12 +27,19 @@ def test_registry_lists_names():
         ({"N": 0}, "N"),
         ({"lambda_": 0.0}, "lambda_"),
         ({"Sigma": -1.0}, "Sigma"),
+        ({"Sigma": [0.1, 0.1]}, "one variance per control"),  # dubins has one control
         ({"v": 0}, "v"),
         ({"dt": float("nan")}, "dt"),
         ({"P": 0}, "P"),
         ({"alpha": -1}, "alpha"),
         ({"perturbation": "wiggly"}, "perturbation"),
-        ({"gamma": 1}, "gamma"),
+        ({"gamma": -1.0}, "gamma"),
+        ({"obstacle_margin": -0.1}, "obstacle_margin"),
+        ({"agent": "tank"}, "unknown agent 'tank'; valid agents: dubins, holonomic, unicycle"),
+        ({"v_max": 2.0}, "v_max"),  # a holonomic parameter given to the (default) dubins agent
+        ({"agent": "holonomic", "v_max": float("inf")}, "v_max"),
+        ({"agent": "holonomic", "Sigma": 1.0}, "one variance per control"),
+        ({"agent": "unicycle", "omega_max": 0.0}, "omega_max"),
     ],
 )
 def test_bad_parameters_name_the_parameter(params, word):
@@ -64,8 +74,8 @@ def test_non_finite_inputs_are_named(name):
     for word, args in bad:
         with pytest.raises(ValueError, match=word):
             ctrl.act(*args)
-    assert np.isfinite(ctrl.act(state, goal, static.tolist(), moving, model))
-    assert np.isfinite(ctrl.act(state, goal, static.tolist(), moving, model))  # list, grid reused
+    assert np.isfinite(ctrl.act(state, goal, static.tolist(), moving, model)).all()
+    assert np.isfinite(ctrl.act(state, goal, static.tolist(), moving, model)).all()  # grid reused
 
 
 def test_cost_map_too_large_names_resolution():
@@ -80,46 +90,101 @@ def scene():
     return np.array([0.0, 0.0, 0.0]), np.array([14.0, 0.0]), static, moving
 
 
+@pytest.mark.parametrize("agent", AGENTS)
 @pytest.mark.parametrize("name", NAMES)
-@pytest.mark.parametrize("perturbation", ["constant", "time_varying"])
-def test_same_seed_bit_identical_actions(name, perturbation):
+@pytest.mark.parametrize("perturbation", PERTURBATIONS)
+def test_same_seed_bit_identical_actions(agent, name, perturbation):
     state, goal, static, moving = scene()
     runs = []
     for _ in range(2):
-        ctrl = dcmppi.make_controller(name, seed=7, K=100, perturbation=perturbation)
+        ctrl = dcmppi.make_controller(
+            name, agent=agent, seed=7, K=100, N=20, perturbation=perturbation
+        )
         s, acts = state.copy(), []
-        for _ in range(4):
+        for _ in range(3):
             acts.append(ctrl.act(s, goal, static, moving, MODEL))
-            s = dubins_step(s, acts[-1], 1.0, 0.1)
-        runs.append(acts)
-    assert runs[0] == runs[1]
+            s = ctrl.agent.step(s, acts[-1], 0.1)
+        runs.append(np.array(acts))
+    np.testing.assert_array_equal(runs[0], runs[1])
     ctrl.reset(seed=8)
-    assert ctrl.act(state, goal, static, moving, MODEL) != runs[0][0]
+    assert (ctrl.act(state, goal, static, moving, MODEL) != runs[0][0]).any()
 
 
+@pytest.mark.parametrize("agent", AGENTS)
 @pytest.mark.parametrize("name", NAMES)
-def test_diagnostics_shapes_and_bounds(name):
+def test_diagnostics_shapes_and_bounds(agent, name):
     state, goal, static, moving = scene()
-    ctrl = dcmppi.make_controller(name, seed=0, K=64, N=20)
-    omega = ctrl.act(state, goal, static, moving, MODEL)
+    ctrl = dcmppi.make_controller(name, agent=agent, seed=0, K=64, N=20)
+    nu = ctrl.agent.nu
+    u = ctrl.act(state, goal, static, moving, MODEL)
     d = ctrl.diagnostics
-    assert abs(omega) <= 1.0 and d.action == omega
-    assert d.eps.shape == (64, 20) and d.states.shape == (64, 21, 3)
+    assert u.shape == (nu,) and np.array_equal(d.action, u)
+    assert d.eps.shape == (64, 20, nu) and d.states.shape == (64, 21, 3)
     assert d.J.shape == d.S.shape == d.weights.shape == (64,)
     assert np.isclose(d.weights.sum(), 1.0) and 1.0 <= d.ess <= 64
-    assert d.plan.shape == (20,) and np.all(np.abs(d.plan) <= 1.0)
-    assert set(ctrl.params) >= {"K", "N", "lambda_", "Sigma", "alpha", "beta", "P", "seed"}
+    assert d.plan.shape == (20, nu)
+    agent_model = ctrl.agent
+    for controls in (u[None], d.plan):
+        assert np.all(controls >= agent_model.lower - 1e-12)
+        assert np.all(controls <= agent_model.upper + 1e-12)
+    assert set(ctrl.params) >= {"agent", "K", "N", "lambda_", "Sigma", "gamma", "seed"}
+    assert set(ctrl.params) >= set(agent_model.param_names)
 
 
+@pytest.mark.parametrize("agent", AGENTS)
+@pytest.mark.parametrize("perturbation", PERTURBATIONS)
+def test_every_sampled_control_respects_the_bounds(agent, perturbation):
+    """Large perturbations around a warm start at the bounds: every rolled-out control sequence
+    is inside the box and, for the holonomic agent, inside the speed disc."""
+    ctrl = dcmppi.make_controller(
+        "mppi", agent=agent, seed=3, K=400, N=15, perturbation=perturbation,
+        Sigma=[4.0] * len(make_agent(agent).controls),
+    )  # fmt: skip
+    ctrl.act(np.zeros(3), np.array([10.0, 3.0]))
+    a = ctrl.agent
+    U0 = a.project(np.tile(a.upper, (15, 1)), axis=1)  # pinned at a corner of the bounds
+    u, eps = ctrl.controls(U0, ctrl.sample())
+    assert u.shape == (15, a.nu, 400)
+    assert (u >= a.lower[None, :, None]).all() and (u <= a.upper[None, :, None]).all()
+    if a.norm_axes is not None:
+        assert (np.hypot(u[:, 0], u[:, 1]) <= a.norm_limit * (1 + 1e-12)).all()
+    np.testing.assert_allclose(u, U0[:, :, None] + eps, rtol=0, atol=1e-12)
+    clipped = (u == a.lower[None, :, None]) | (u == a.upper[None, :, None])
+    assert clipped.mean() > 0.1  # the test did push samples beyond the bounds
+
+
+@pytest.mark.parametrize("agent", AGENTS)
 @pytest.mark.parametrize("name", NAMES)
-def test_closed_loop_reaches_goal_around_cylinder(name):
+def test_closed_loop_reaches_goal_around_cylinder(agent, name):
     state, goal, static, _ = scene()
-    ctrl = dcmppi.make_controller(name, seed=0, K=200)
+    ctrl = dcmppi.make_controller(name, agent=agent, seed=0, K=200)
     for _ in range(250):
-        omega = ctrl.act(state, goal, static)
-        state = dubins_step(state, omega, ctrl.v, ctrl.dt)
+        u = ctrl.act(state, goal, static)
+        state = ctrl.agent.step(state, u, ctrl.dt)
         clearance = np.hypot(state[0] - 6.0, state[1] - 0.2) - 1.0 - ctrl.robot_radius
         assert clearance > 0
         if np.hypot(*(state[:2] - goal)) < 1.0:
             break
     assert np.hypot(*(state[:2] - goal)) < 1.0
+
+
+def test_agent_instance_and_margin():
+    """An Agent instance plans as its name does; obstacle_margin widens the frozen obstacles."""
+    state, goal, static, moving = scene()
+    by_name = dcmppi.make_controller("mppi", agent="holonomic", v_max=1.2, seed=1, K=64)
+    by_instance = dcmppi.make_controller(
+        "mppi", agent=make_agent("holonomic", v_max=1.2), seed=1, K=64
+    )
+    np.testing.assert_array_equal(
+        by_name.act(state, goal, static, moving), by_instance.act(state, goal, static, moving)
+    )
+    with pytest.raises(ValueError, match="v_max"):  # set on the instance, not here
+        dcmppi.make_controller("mppi", agent=make_agent("holonomic"), v_max=1.0)
+    # a moving obstacle right on the straight path; with a margin more rollouts touch it
+    moving = np.array([[3.0, 0.6, 0.0, 0.3]])
+    hits = []
+    for margin in (0.0, 0.5):
+        ctrl = dcmppi.make_controller("mppi", seed=1, K=200, obstacle_margin=margin)
+        ctrl.act(state, goal, None, moving)
+        hits.append((ctrl.diagnostics.J >= ctrl.alpha).sum())
+    assert hits[1] > hits[0]

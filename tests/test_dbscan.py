@@ -97,7 +97,7 @@ def test_controller_features(seed):
         modes = rng.uniform(-2, 2, 3) * sigma
         S = np.min((raw[:, None] - modes) ** 2, axis=1) * rng.uniform(10, 500)
         S += 1e3 * (rng.random(K) < 0.2)  # collisions
-        X = cluster_features(raw[None, :], S, lam, sigma, COST_CLIP, raw)
+        X = cluster_features(raw[None, None, :], S, lam, [sigma], COST_CLIP, raw[None])
         assert_like_sklearn(X, DBSCAN_EPS, DBSCAN_MIN_SAMPLES)
 
 

@@ -17,9 +17,9 @@ def straight_cost(moving, seed=0, **params):
     ctrl._goal = goal
     ctrl._grid = dcmppi.control.costs.OccupancyGrid(None, ctrl.robot_radius)
     ctrl._prepare_obstacles(state, dcmppi.control.costs.valid_cylinders(moving, "m", 4), MODEL)
-    _, J = ctrl.evaluate(state, np.zeros((ctrl.N, 1)))
+    _, J = ctrl.evaluate(state, np.zeros((ctrl.N, 1, 1)))
     ctrl._prepare_obstacles(state, np.zeros((0, 4)), MODEL)
-    _, J0 = ctrl.evaluate(state, np.zeros((ctrl.N, 1)))
+    _, J0 = ctrl.evaluate(state, np.zeros((ctrl.N, 1, 1)))
     return J[0], J0[0], ctrl
 
 
@@ -66,7 +66,7 @@ def test_unreachable_obstacles_are_skipped_exactly():
     fut = ctrl.diagnostics.obstacle_samples
     assert fut.shape == (1, ctrl.P, ctrl.N + 1, 2)
     # Skipping is exact: the far obstacle's own futures would hit no rollout.
-    x = rollout_time_major(state, np.full((ctrl.N, 3), [-1.0, 0.0, 1.0]), ctrl.v, ctrl.dt)
+    x = rollout_time_major(state, np.full((ctrl.N, 3), [-1.0, 0.0, 1.0]), ctrl.agent.v, ctrl.dt)
     far_track = np.broadcast_to(far[:, None, :2], (1, ctrl.N + 1, 2))
     assert collision_counts(x[:, 0], x[:, 1], far_track, np.array([1.5])).sum() == 0
 

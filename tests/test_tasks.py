@@ -1,4 +1,5 @@
-"""The task suite: dm_env conformance, determinism, observation contract, bad input."""
+"""The task suite: dm_env conformance, determinism, observation contract, bad input, for every
+task with every agent."""
 
 import pathlib
 
@@ -21,8 +22,10 @@ SMALL = {
     "crossing": dict(),
     "layout": dict(path=BARN, world=0),
 }
+AGENTS = ("dubins", "unicycle", "holonomic")
 KEYS = (
     "robot_pose",
+    "robot_velocity",
     "goal",
     "static_obstacles",
     "moving_obstacles",
@@ -36,13 +39,18 @@ def make(name, **kwargs):
     return tasks.load(name, {**SMALL[name], "random": 0, **kwargs})
 
 
-def wiggle(step):
-    """A deterministic turn-rate sequence that exercises both signs."""
-    return np.array([0.9 * np.sin(0.3 * step)])
+def wiggle(step, spec=None):
+    """A deterministic action sequence over 90 % of the action range, both signs of each
+    control (dubins: the turn rate 0.9 sin(0.3 step))."""
+    if spec is None:
+        return np.array([0.9 * np.sin(0.3 * step)])
+    middle, half = 0.5 * (spec.maximum + spec.minimum), 0.5 * (spec.maximum - spec.minimum)
+    return middle + 0.9 * half * np.sin(0.3 * step + np.arange(len(middle)))
 
 
-def run(env, steps, policy=wiggle):
+def run(env, steps, policy=None):
     """Observations of one episode (reset included), at most `steps` steps."""
+    policy = policy or (lambda i: wiggle(i, env.action_spec()))
     ts = env.reset()
     out = [ts.observation]
     for i in range(steps):
@@ -53,21 +61,23 @@ def run(env, steps, policy=wiggle):
     return out
 
 
-def _conformance_case(name):
+def _conformance_case(name, agent):
     class Conformance(test_utils.EnvironmentTestMixin, absltest.TestCase):
         def make_object_under_test(self):
-            return make(name, noise="process", time_limit=1.5)
+            return make(name, noise="process", time_limit=1.5, agent=agent)
 
         def make_action_sequence(self):
+            spec = make(name, agent=agent).action_spec()
             for i in range(40):  # several episodes of 15 steps: LAST, then FIRST again
-                yield wiggle(i)
+                yield wiggle(i, spec)
 
-    Conformance.__name__ = Conformance.__qualname__ = f"TestConformance_{name}"
+    Conformance.__name__ = Conformance.__qualname__ = f"TestConformance_{name}_{agent}"
     return Conformance
 
 
 for _name in SMALL:
-    globals()[f"TestConformance_{_name}"] = _conformance_case(_name)
+    for _agent in AGENTS:
+        globals()[f"TestConformance_{_name}_{_agent}"] = _conformance_case(_name, _agent)
 
 
 def test_registry_lists_every_task_with_a_description():
@@ -77,7 +87,7 @@ def test_registry_lists_every_task_with_a_description():
 
 @pytest.mark.parametrize("name", SMALL)
 def test_observation_matches_spec_and_contract(name):
-    env = make(name)
+    env = make(name, agent="dubins")
     spec = env.observation_spec()
     assert tuple(spec) == KEYS
     for obs in run(env, 5):
@@ -93,10 +103,11 @@ def test_observation_matches_spec_and_contract(name):
     np.testing.assert_allclose(action.maximum, defaults.omega_max())
 
 
+@pytest.mark.parametrize("agent", AGENTS)
 @pytest.mark.parametrize("name", SMALL)
-def test_same_seed_same_world_noise_and_trajectory(name):
-    a = run(make(name, noise="process"), 25)
-    b = run(make(name, noise="process"), 25)
+def test_same_seed_same_world_noise_and_trajectory(name, agent):
+    a = run(make(name, noise="process", agent=agent), 25)
+    b = run(make(name, noise="process", agent=agent), 25)
     assert len(a) == len(b)
     for oa, ob in zip(a, b, strict=True):
         for key in KEYS:
@@ -116,7 +127,7 @@ def test_observation_shapes_stable_across_episodes(name):
     shapes = {k: v.shape for k, v in env.reset().observation.items()}
     for _ in range(4):
         ts = env.reset()
-        ts = env.step([0.5])
+        ts = env.step(wiggle(2, env.action_spec()))
         assert {k: v.shape for k, v in ts.observation.items()} == shapes
 
 
@@ -211,6 +222,10 @@ def test_unknown_task_lists_valid_names():
         (dict(time_limit=0), "time_limit"),
         (dict(n_clusters=0), "n_clusters"),
         (dict(speed=1.0), "unknown task_kwargs"),
+        (dict(agent="tank"), "unknown agent 'tank'; valid agents: dubins, holonomic, unicycle"),
+        (dict(v_max=2.0), "unknown parameter.*v_max.*'dubins'"),
+        (dict(agent="holonomic", v_max=-1.0), "v_max"),
+        (dict(agent="holonomic", Sigma=[1.0, 1.0]), "one variance per control"),
     ],
 )
 def test_bad_task_kwargs_name_the_parameter(kwargs, word):
@@ -237,3 +252,51 @@ def test_bad_action_raises():
         env.step([float("nan")])
     with pytest.raises(ValueError, match="action"):
         env.step([0.1, 0.2])
+    env = make("crowd", agent="holonomic")
+    env.reset()
+    with pytest.raises(ValueError, match=r"3 finite number\(s\) \('u_x', 'u_y', 'u_theta'\)"):
+        env.step([0.1, 0.2])
+
+
+@pytest.mark.parametrize("agent", AGENTS)
+def test_action_spec_has_the_agents_controls_and_bounds(agent):
+    from dcmppi.control.agents import make_agent
+
+    model = make_agent(agent)
+    spec = make("blocked", agent=agent).action_spec()
+    assert spec.shape == (model.nu,) and spec.name == ",".join(model.controls)
+    np.testing.assert_array_equal(spec.minimum, model.lower)
+    np.testing.assert_array_equal(spec.maximum, model.upper)
+
+
+def test_holonomic_action_beyond_the_speed_disc_is_scaled_onto_it():
+    """(1.5, 1.5) is inside the box but outside |(u_x, u_y)| <= 1.5: it drives as (1.06, 1.06);
+    (9, 9) is clipped to the box first, so it drives the same."""
+    c = 1.5 / np.sqrt(2)
+    ends = [
+        run(make("blocked", agent="holonomic"), 10, policy=lambda i, a=a: a)[-1]["robot_pose"]
+        for a in ([1.5, 1.5, 0.0], [c, c, 0.0], [9.0, 9.0, 0.0])
+    ]
+    np.testing.assert_allclose(ends[0], ends[1])
+    np.testing.assert_allclose(ends[0], ends[2])
+
+
+def test_crowd_defaults_to_the_holonomic_agent_others_to_dubins():
+    assert make("crowd").task.agent.name == "holonomic"
+    assert make("crossing").task.agent.name == "dubins"
+    assert tasks.default_agent("crowd") == "holonomic"
+
+
+def test_leaving_the_map_ends_the_episode_as_a_failure():
+    env = make("blocked", agent="holonomic")  # start (27.5, 25) facing +x in a 75 x 50 map
+    env.reset()
+    steps = 0
+    while True:
+        ts = env.step([0.0, 1.5, 0.0])  # straight up at 1.5 m/s: y = 50 after ~17 s
+        steps += 1
+        if ts.last():
+            break
+    assert env.task.outcome == "left_map"
+    assert ts.discount == 0.0 and ts.reward == 0.0
+    assert 160 <= steps <= 175
+    assert ts.observation["robot_pose"][1] > 50.0

@@ -113,7 +113,7 @@ def test_process_disturbance_offsets_the_velocity():
     env.reset()
     env.physics.set_disturbance(np.array([0.0, 0.3, 0.0]))
     for _ in range(3):
-        env.physics.set_command(defaults.V, 0.0)
+        env.physics.set_command([defaults.V, 0.0, 0.0])
         env.physics.step(10)
     vx, vy, _ = env.physics.robot_velocity()
     assert vx == pytest.approx(defaults.V, abs=1e-2)  # start faces +x
@@ -121,7 +121,7 @@ def test_process_disturbance_offsets_the_velocity():
 
 
 def test_moving_obstacles_follow_dubins_arcs_and_stay_in_the_map():
-    env = tasks.load("crowd", {"random": 5, "n_obstacles": 40})
+    env = tasks.load("crowd", {"random": 5, "n_obstacles": 40, "agent": "dubins"})
     ts = env.reset()
     world = env.task.world
     xmin, ymin, xmax, ymax = world.map_bounds
@@ -227,3 +227,44 @@ def test_blocked_obstacle_sits_on_the_start_goal_line():
     jittered = tasks.load("blocked", {"lateral_jitter": 1.0, "random": 4})
     shifted = jittered.reset().observation["static_obstacles"][0]
     assert 0 < abs(shifted[1] - obstacle[1]) <= 1.0
+
+
+# Constant commands per agent, held for 1 s from rest or, for the car, from its speed.
+PLANT_CASES = {
+    "dubins": [[0.0], [1.0], [-0.6]],
+    "unicycle": [[1.0, 0.0], [0.5, 1.0], [0.8, -0.5], [0.0, 1.0]],
+    "holonomic": [[1.5, 0.0, 0.0], [0.6, -1.2, 0.5], [-1.0, 1.0, -1.0], [0.0, 0.0, 1.0]],
+}
+TAU_PLANAR, TAU_YAW = 0.02, 0.05  # [s] the actuators' time constants (models/robots/*.xml)
+
+
+@pytest.mark.parametrize("agent", sorted(PLANT_CASES))
+def test_agent_model_matches_its_mujoco_plant_over_one_second(agent):
+    """The analytic model has no actuator lag; after T = 1 s of a constant command the plant's
+    pose differs from it by the lags' once-only losses: at most speed x tau_planar (+ one 10 ms
+    substep) of position, omega x tau_yaw of heading, and the position that the heading lag
+    turns away, speed x T x omega x tau_yaw."""
+    env = tasks.load("blocked", {"agent": agent, "time_limit": 5.0})
+    model = env.task.agent
+    report, failures = [], []
+    for u in PLANT_CASES[agent]:
+        ts = env.reset()
+        predicted = ts.observation["robot_pose"].copy()
+        for _ in range(10):
+            ts = env.step(u)
+            predicted = model.step(predicted, np.array(u, dtype=float), defaults.DT)
+        actual = ts.observation["robot_pose"]
+        position = np.hypot(*(actual[:2] - predicted[:2]))
+        heading = abs((actual[2] - predicted[2] + np.pi) % (2 * np.pi) - np.pi)
+        speed = (
+            model.v if agent == "dubins" else np.hypot(*u[:-1]) if agent == "holonomic" else u[0]
+        )
+        omega = abs(u[-1])
+        bound_position = speed * (TAU_PLANAR + defaults.PHYSICS_TIMESTEP + omega * TAU_YAW)
+        bound_heading = omega * TAU_YAW + 1e-3
+        report.append(f"u={u}: {position:.4f} m (<= {bound_position:.3f}), {heading:.4f} rad")
+        if position > bound_position + 1e-3 or heading > bound_heading:
+            failures.append(u)
+    message = f"{agent} plant vs analytic model after 1 s: " + "; ".join(report)
+    assert not failures, message
+    print(message)

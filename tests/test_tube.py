@@ -3,8 +3,10 @@
 import numpy as np
 
 import dcmppi
+from dcmppi.control.agents import make_agent
+from dcmppi.control.agents.dubins import jacobian_terms
 from dcmppi.control.dynamics import dubins_step, rollout, wrap_angle
-from dcmppi.control.tube import dubins_lqr_gain, jacobian_terms, linearize, tvlqr_gains
+from dcmppi.control.tube import dubins_lqr_gain, tvlqr_gains
 
 GOAL = np.array([20.0, 0.0])
 
@@ -32,8 +34,8 @@ def test_lqr_feedback_reduces_tracking_error():
     v, dt, N = 1.0, 0.1, 60
     U = 0.3 * np.sin(np.linspace(0, 3, N))
     nominal = rollout(np.zeros(3), U, v, dt)
-    A, B = linearize(nominal, U, v, dt)
-    K = tvlqr_gains(A, B, np.diag([1.0, 1.0, 1.0]), 1.0, np.diag([1.0, 1.0, 1.0]))
+    A, B = make_agent("dubins").jacobians(nominal, U[:, None], dt)
+    K = tvlqr_gains(A, B, np.diag([1.0, 1.0, 1.0]), 1.0, np.diag([1.0, 1.0, 1.0]))[:, 0]
     start = np.array([0.0, 0.6, -0.3])  # lateral and heading error
     open_loop, closed = start.copy(), start.copy()
     for i in range(N):
@@ -51,7 +53,7 @@ def test_nominal_propagates_once_per_step():
     state = np.zeros(3)
     ctrl.act(state, GOAL)
     z = ctrl.diagnostics.nominal_state
-    np.testing.assert_allclose(ctrl.nominal, dubins_step(z, ctrl.diagnostics.plan[0], 1.0, 0.1))
+    np.testing.assert_allclose(ctrl.nominal, dubins_step(z, ctrl.diagnostics.plan[0, 0], 1.0, 0.1))
 
 
 def test_scalar_riccati_equals_matrix_riccati():
@@ -59,11 +61,11 @@ def test_scalar_riccati_equals_matrix_riccati():
     v, dt, N = 1.0, 0.1, 50
     U = rng.uniform(-1.0, 1.0, N)
     nominal = rollout(np.array([1.0, 2.0, 3.0]), U, v, dt)
-    A, B = linearize(nominal, U, v, dt)
+    A, B = make_agent("dubins").jacobians(nominal, U[:, None], dt)
     c0, c1, b0, b1 = jacobian_terms(nominal[:, 2], U, v, dt)
     for q_pos, q_theta, r in [(1.0, 1.0, 1.0), (2.0, 0.5, 0.3), (0.0, 1.0, 4.0)]:
         Q = np.diag([q_pos, q_pos, q_theta])
-        expected = tvlqr_gains(A, B, Q, r, Q)[0]
+        expected = tvlqr_gains(A, B, Q, r, Q)[0, 0]
         got = dubins_lqr_gain(c0, c1, b0, b1, dt, q_pos, q_theta, r)
         np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-14)
 
@@ -73,8 +75,8 @@ def test_nominal_kept_runs_lqr_feedback():
     the plan by the LQR feedback, which steers back towards the nominal's lateral offset."""
     d = step_with_nominal([0.0, 0.5, 0.0], [-0.5, 0.0, 0.0], threshold=0.0)
     assert not d.nominal_reset
-    assert d.action != d.plan[0]
-    assert d.action > d.plan[0]  # the nominal lies to the left: turn left (counter-clockwise)
+    assert d.action[0] != d.plan[0, 0]
+    assert d.action[0] > d.plan[0, 0]  # the nominal lies to the left: turn left (anticlockwise)
 
 
 def test_two_start_batch_equals_separate_rollouts():
@@ -99,7 +101,7 @@ def test_timing_push_keeps_the_nominal_in_some_steps():
     np.testing.assert_array_equal(offsets, push(20))  # deterministic
     kept = 0
     for offset in offsets:
-        omega = ctrl.act(state, goal, static)
+        u = ctrl.act(state, goal, static)
         kept += not ctrl.diagnostics.nominal_reset
-        state = pushed(dubins_step(state, omega, ctrl.v, ctrl.dt), offset)
+        state = pushed(ctrl.agent.step(state, u, ctrl.dt), offset)
     assert 5 <= kept < 20

@@ -13,8 +13,6 @@ from collections.abc import Callable
 
 import numpy as np
 
-ROBOT_KEYS = ("v", "r_min", "robot_radius")  # parameters the plant and the planner share
-
 
 @dataclasses.dataclass(frozen=True)
 class EpisodeSpec:
@@ -45,25 +43,42 @@ def make_env(spec: EpisodeSpec):
     return tasks.load(spec.task, task_kwargs=task_kwargs)
 
 
-def make_controller(spec: EpisodeSpec):
-    """The controller of `spec`, sharing the robot parameters with the task."""
-    from dcmppi import make_controller as _make
+def robot_keys() -> list[str]:
+    """The parameters the plant and the planner share: the agent, its parameters and the robot
+    radius. They are task parameters; the runner hands them to the controller."""
+    from dcmppi.control.agents import agent_param_names
 
-    shared = {k: spec.task_params[k] for k in ROBOT_KEYS if k in spec.task_params}
+    return ["agent", "robot_radius", *agent_param_names()]
+
+
+def make_controller(spec: EpisodeSpec):
+    """The controller of `spec`, planning with the task's agent and robot parameters."""
+    from dcmppi import make_controller as _make
+    from dcmppi.tasks import default_agent
+
+    keys = robot_keys()
+    clash = sorted(set(keys) & set(spec.controller_params))
+    if clash:
+        raise ValueError(
+            f"{', '.join(clash)}: robot parameters are task parameters (the plant and the "
+            "planner share them); set them with --task-param / task_params"
+        )
+    shared = {k: spec.task_params[k] for k in keys if k in spec.task_params}
+    shared.setdefault("agent", default_agent(spec.task))
     params = {**shared, **spec.controller_params, "seed": spec.controller_seed()}
     return _make(spec.controller, **params)
 
 
 def act(controller, observation) -> np.ndarray:
-    """The controller's action for a task observation, as the task's action array (1,)."""
-    omega = controller.act(
+    """The controller's action for a task observation, as the task's action array (nu,)."""
+    u = controller.act(
         observation["robot_pose"],
         observation["goal"],
         observation["static_obstacles"],
         observation["moving_obstacles"],
         observation["obstacle_model"],
     )
-    return np.array([omega], dtype=np.float64)
+    return np.asarray(u, dtype=np.float64).reshape(-1)
 
 
 class Episode:

@@ -16,15 +16,19 @@ from dcmppi.tasks.worlds import dubins_pose
 FIGURE_CONTROLLERS = ("mppi", "clustered", "dc")
 
 
-def straight_blocked(observation, horizon: float, robot_radius: float) -> bool:
-    """Whether driving straight for `horizon` seconds meets an obstacle.
+def straight_blocked(observation, controller, horizon: float) -> bool:
+    """Whether the controller's first guess (dubins: straight ahead; holonomic: straight at the
+    goal), held for `horizon` seconds, meets an obstacle.
 
     Static cylinders stay put; moving ones are predicted at the mean of the known Gaussian.
     """
-    x, y, theta = observation["robot_pose"]
+    agent, dt = controller.agent, controller.dt
+    state, goal = observation["robot_pose"], observation["goal"]
+    steps = int(round(horizon / dt))
+    robot = agent.rollout_one(state, agent.first_guess(state, goal, steps), dt)[:, :2]  # (T, 2)
+    t = np.arange(steps + 1) * dt
+    robot_radius = controller.robot_radius
     v_mean, _, omega_mean, _ = observation["obstacle_model"]
-    t = np.linspace(0.0, horizon, 51)
-    robot = np.stack([x + t * np.cos(theta), y + t * np.sin(theta)], axis=-1)  # (T, 2)
     static = observation["static_obstacles"]
     static = static[static[:, 2] > 0]
     d = np.linalg.norm(robot[:, None] - static[None, :, :2], axis=-1) - static[:, 2]
@@ -40,15 +44,15 @@ def straight_blocked(observation, horizon: float, robot_radius: float) -> bool:
 def first_step(spec: EpisodeSpec, controllers=FIGURE_CONTROLLERS, approach: int | None = None):
     """Each controller's first step on `spec`'s episode, once an obstacle matters.
 
-    The robot first drives straight (omega = 0) for `approach` control steps, by default
-    until driving straight would meet an obstacle within 60 % of the horizon: the moment
-    of the paper's Fig. 2 and 4, when the straight reference runs into the obstacle. Then
-    every controller plans from that same observation with the straight warm start and the
-    same seed.
+    The robot first follows the agent's first guess (dubins: omega = 0, straight ahead) for
+    `approach` control steps, by default until that would meet an obstacle within 60 % of the
+    horizon: the moment of the paper's Fig. 2 and 4, when the straight reference runs into the
+    obstacle. Then every controller plans from that same observation with the first guess as
+    its warm start and the same seed.
 
     Returns:
       (observation, {name: (controller, action)}, steps driven straight), where action is
-      the applied turn rate.
+      the applied controls (nu,).
     """
     env = make_env(spec)
     time_step = env.reset()
@@ -57,9 +61,10 @@ def first_step(spec: EpisodeSpec, controllers=FIGURE_CONTROLLERS, approach: int 
     steps = 0
     while not time_step.last() and (
         steps < approach if approach is not None
-        else not straight_blocked(time_step.observation, 0.6 * horizon, probe.robot_radius)
+        else not straight_blocked(time_step.observation, probe, 0.6 * horizon)
     ):  # fmt: skip
-        time_step = env.step(np.zeros(1))
+        obs = time_step.observation
+        time_step = env.step(probe.agent.first_guess(obs["robot_pose"], obs["goal"], 1)[0])
         steps += 1
     if time_step.last():
         raise ValueError(f"the episode ended ({env.task.outcome}) while approaching")
@@ -68,5 +73,5 @@ def first_step(spec: EpisodeSpec, controllers=FIGURE_CONTROLLERS, approach: int 
     for name in controllers:
         controller = make_controller(dataclasses.replace(spec, controller=name))
         controller.reset()
-        out[name] = (controller, float(act(controller, observation)[0]))
+        out[name] = (controller, act(controller, observation))
     return observation, out, steps

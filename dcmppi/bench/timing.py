@@ -124,9 +124,9 @@ class ClosedLoop:
         """One control step; its controller time is appended to `times` [s]."""
         ctrl = self.ctrl
         t0 = time.perf_counter()
-        omega = ctrl.act(self.state, self.goal, self.static, self.moving, self.model)
+        u = ctrl.act(self.state, self.goal, self.static, self.moving, self.model)
         self.times.append(time.perf_counter() - t0)
-        self.state = dubins_step(self.state, omega, ctrl.v, ctrl.dt)
+        self.state = ctrl.agent.step(self.state, u, ctrl.dt)
         if self.offsets is not None:
             self.state = pushed(self.state, self.offsets[len(self.times) - 1])
         if self.moving is not None:

@@ -29,18 +29,24 @@ COST_CLIP = 10.0  # clip of (S - min S) / lambda
 
 
 def cluster_features(eps, S, lambda_, sigma, cost_clip=COST_CLIP, raw=None):
-    """DBSCAN features (K, 2) or (K, N + 1).
+    """DBSCAN features (K, nu + 1) or (K, N nu + 1).
 
     Args:
-      eps: (N, K) clipped perturbations (time-major). S: (K,) costs.
-      sigma: perturbation standard deviation. raw: (K,) scalar constant perturbations, if any.
+      eps: (N, nu, K) projected perturbations (time-major). S: (K,) costs.
+      sigma: (nu,) perturbation standard deviations. raw: (nu, K) constant perturbations, if any.
     """
+    n, nu, k = eps.shape
+    sigma = np.asarray(sigma, dtype=float).reshape(-1)
     if raw is not None:
-        if np.shape(raw) != np.shape(S):
-            raise ValueError(f"raw and S must be (K,) alike; got {np.shape(raw)}, {np.shape(S)}")
-        return _constant_features(raw, S, sigma, lambda_, cost_clip).T
+        if np.shape(raw) != (nu, len(S)):
+            raise ValueError(f"raw must be (nu, K) = ({nu}, {len(S)}); got {np.shape(raw)}")
+        if nu == 1:
+            return _constant_features(raw[0], S, sigma[0], lambda_, cost_clip).T
+        cost = np.minimum((S - S.min()) / lambda_, cost_clip)
+        return np.column_stack([(raw / sigma[:, None]).T, cost])
     cost = np.minimum((S - S.min()) / lambda_, cost_clip)
-    return np.column_stack([eps.T / (sigma * np.sqrt(len(eps))), cost])
+    scale = np.repeat(sigma[None, :] * np.sqrt(n), n, axis=0).reshape(-1)
+    return np.column_stack([np.reshape(eps, (n * nu, k)).T / scale, cost])
 
 
 @numba.njit(cache=True)
@@ -64,28 +70,31 @@ def cluster_updates(U0, eps, S, lambda_, labels, raw=None, bound=None):
     """Alg. 1 inside every cluster (Alg. 2 lines 12-14).
 
     Args:
-      U0: (N,). eps: (N, K). S: (K,). labels: (K,) with M clusters 0..M-1 and noise -1.
-      raw, bound: with constant perturbations, the scalar samples (K,) and the control bound:
-        eps[:, k] is then recomputed as clip(U0 + raw_k, -bound, bound) - U0 (the same values,
-        without reading down the columns of the (N, K) array).
+      U0: (N, nu). eps: (N, nu, K). S: (K,). labels: (K,) with M clusters 0..M-1 and noise -1.
+      raw, bound: for one control with constant perturbations and symmetric bounds, the
+        scalar samples (K,) and the control bound: eps[:, 0, k] is then recomputed as
+        clip(U0 + raw_k, -bound, bound) - U0 (the same values, without reading down the
+        columns of the (N, 1, K) array).
     Returns:
-      U: (M, N) control sequence per cluster; w: (K,) each sample's weight within its own
+      U: (M, N, nu) control sequence per cluster; w: (K,) each sample's weight within its own
       cluster (each cluster's weights sum to 1; noise points 0).
     """
-    N, K = eps.shape
-    if np.shape(U0) != (N,) or S.shape != (K,) or labels.shape != (K,):
+    N, nu, K = eps.shape
+    if np.shape(U0) != (N, nu) or S.shape != (K,) or labels.shape != (K,):
         raise ValueError(
-            f"cluster_updates needs U0 (N,), S (K,) and labels (K,) for eps (N, K) = {eps.shape}; "
-            f"got {np.shape(U0)}, {S.shape}, {labels.shape}"
+            f"cluster_updates needs U0 (N, nu), S (K,) and labels (K,) for eps (N, nu, K) = "
+            f"{eps.shape}; got {np.shape(U0)}, {S.shape}, {labels.shape}"
         )
-    if raw is not None and np.shape(raw) != (K,):
-        raise ValueError(f"raw must be (K,) = ({K},); got {np.shape(raw)}")
+    if raw is not None and (nu != 1 or np.shape(raw) != (K,)):
+        raise ValueError(f"raw needs one control and shape (K,) = ({K},); got {np.shape(raw)}")
     M = int(labels.max()) + 1 if K else 0
     w = _cluster_exponents(S, labels, M, lambda_)
     np.exp(w, out=w)  # numpy's vectorised exp: several times faster than numba's scalar one
     if raw is None:
         raw, bound = np.zeros(0), 0.0
-    return _cluster_sums(U0, eps, raw, float(bound), w, labels, M), w
+    flat = np.reshape(eps, (N * nu, K))
+    U = _cluster_sums(np.reshape(U0, N * nu), flat, raw, float(bound), w, labels, M)
+    return U.reshape(M, N, nu), w
 
 
 @numba.njit(cache=True)
@@ -157,7 +166,7 @@ class ClusteredMPPI(MPPI):
 
     def _solve(self, state):
         eps, states, J, S = self.rollouts(state)
-        raw = self._raw if self.perturbation == "constant" else None
+        raw = self._raw
         features = cluster_features(eps, S, self.lambda_, self.sigma, self.cost_clip, raw)
         labels = cluster_labels(features, self.dbscan_eps, self.dbscan_min_samples)
         self.record(eps, states, J, S)
@@ -165,10 +174,15 @@ class ClusteredMPPI(MPPI):
         d.labels = labels
         if labels.max(initial=-1) < 0:  # no cluster: Alg. 1 over all samples
             plan, w = mppi_update(self.U, eps, S, self.lambda_)
-            d.chosen, d.cluster_controls, d.cluster_costs = -1, np.zeros((0, self.N)), np.zeros(0)
+            d.chosen, d.cluster_controls = -1, np.zeros((0, self.N, self.nu))
+            d.cluster_costs = np.zeros(0)
         else:
-            U, w = cluster_updates(self.U, eps, S, self.lambda_, labels, raw, self.omega_max)
-            _, Jm = self.evaluate(state, U.T)
+            agent = self.agent
+            scalar = raw is not None and agent.nu == 1 and agent.lower[0] == -agent.upper[0]
+            U, w = cluster_updates(
+                self.U, eps, S, self.lambda_, labels, raw[0] if scalar else None, agent.upper[0]
+            )
+            _, Jm = self.evaluate(state, U.transpose(1, 2, 0))
             best = int(np.argmin(Jm))
             plan, w = U[best], np.where(labels == best, w, 0.0)
             d.chosen, d.cluster_controls, d.cluster_costs = best, U, Jm

@@ -1,12 +1,13 @@
 """The controller interface, its parameters, the diagnostics record and the registry.
 
-    ctrl = make_controller("clustered", K=500, seed=0)
+    ctrl = make_controller("clustered", agent="holonomic", K=500, seed=0)
     ctrl.reset(seed=1)
-    omega = ctrl.act(state, goal, static, moving, obstacle_model)
+    u = ctrl.act(state, goal, static, moving, obstacle_model)   # (nu,) controls to apply
 
 Every controller accepts the shared parameters (SPEC section 3 defaults from
-dcmppi.control.defaults):
-v, r_min, robot_radius, dt, K, N, lambda_, Sigma, alpha, beta, P, seed, plus its own.
+dcmppi.control.defaults): agent and its parameters (dubins: v, r_min; unicycle and holonomic:
+v_max, omega_max), robot_radius, dt, K, N, lambda_, Sigma, gamma, alpha, beta, P, seed,
+perturbation, resolution, obstacle_margin, plus its own.
 """
 
 import dataclasses
@@ -17,10 +18,10 @@ import numpy as np
 
 from . import defaults
 from ._malloc import tune_malloc
+from .agents import Agent, agent_class, make_agent
 from .costs import RESOLUTION, OccupancyGrid, collision_counts, goal_distance, valid_cylinders
-from .dynamics import rollout_time_major
 
-PERTURBATIONS = ("constant", "time_varying")
+PERTURBATIONS = ("constant", "time_varying", "mixed")
 MAX_COORDINATE = 1e6  # |state| and |goal| bound: far beyond, squared distances overflow
 
 _REGISTRY = {}
@@ -42,34 +43,47 @@ def controller_names():
     return sorted(_REGISTRY)
 
 
-def make_controller(name, **params):
-    """A controller by registry name ("mppi", "clustered", "dc", "tube") and keyword parameters."""
+def controller_class(name):
+    """The registered class of controller `name`; a ValueError names the valid ones."""
     if name not in _REGISTRY:
         raise ValueError(
             f"unknown controller {name!r}; valid names: {', '.join(controller_names())}"
         )
-    cls = _REGISTRY[name]
-    unknown = sorted(set(params) - set(cls.param_names()))
+    return _REGISTRY[name]
+
+
+def make_controller(name, **params):
+    """A controller by registry name ("mppi", "clustered", "dc", "tube") and keyword parameters.
+
+    `agent` (default "dubins") names the analytic model, or is an Agent instance; the agent's
+    own parameters (e.g. v_max) are passed alongside the controller's.
+    """
+    cls = controller_class(name)
+    agent = params.get("agent", "dubins")
+    agent_params = () if isinstance(agent, Agent) else agent_class(agent).param_names
+    valid = [*cls.param_names(), *agent_params]
+    unknown = sorted(set(params) - set(valid))
     if unknown:
         raise ValueError(
-            f"unknown parameter(s) {', '.join(unknown)} for controller {name!r}; "
-            f"valid parameters: {', '.join(cls.param_names())}"
+            f"unknown parameter(s) {', '.join(unknown)} for controller {name!r} with agent "
+            f"{getattr(agent, 'name', agent)!r}; valid parameters: {', '.join(valid)}"
         )
     return cls(**params)
 
 
 @dataclasses.dataclass
 class Diagnostics:
-    """The last control step, by reference (arrays are not copied). Shapes for K samples, N steps.
+    """The last control step, by reference (arrays are not copied). K samples, N steps, nu
+    controls.
 
-    eps: (K, N) perturbations actually applied (clipped to the control bound).
+    eps: (K, N, nu) perturbations actually applied (projected into the control bounds).
     states: (K, N + 1, 3) rollout states.
     J: (K,) costs; S: (K,) costs plus the importance term.
     weights: (K,) weights that produced the plan (zero outside the chosen cluster).
     ess: effective sample size 1 / sum(weights^2).
-    plan: (N,) the optimised control sequence; action: the applied turn rate.
+    plan: (N, nu) the optimised control sequence; action: (nu,) the applied controls.
     labels: (K,) DBSCAN labels (-1: noise), clustered/dc only.
-    cluster_controls: (M, N) and cluster_costs: (M,) per-cluster control sequences and their J.
+    cluster_controls: (M, N, nu) and cluster_costs: (M,) per-cluster sequences and their J.
     chosen: index of the chosen cluster, -1 for the fallback to Alg. 1 over all samples.
     nominal_state: (3,) and nominal_reset: bool, tube only.
     obstacle_samples: (L', P, N + 1, 2) sampled futures of the obstacles within reach, dc only.
@@ -82,7 +96,7 @@ class Diagnostics:
     weights: np.ndarray = None
     ess: float = float("nan")
     plan: np.ndarray = None
-    action: float = float("nan")
+    action: np.ndarray = None
     labels: np.ndarray = None
     cluster_controls: np.ndarray = None
     cluster_costs: np.ndarray = None
@@ -104,17 +118,23 @@ def _positive(name, value, integer=False, allow_zero=False):
 
 
 class Controller:
-    """Sampling-based controller over the analytic Dubins model (base of all four).
+    """Sampling-based controller over an analytic agent model (base of all four).
 
     Args (keywords; SPEC section 3 defaults):
-      v: forward speed [m/s]. r_min: minimum turning radius [m]; |omega| <= v / r_min.
+      agent: "dubins" (default), "unicycle", "holonomic", another registered name, or an Agent
+        instance; its parameters (dubins: v, r_min; others: v_max, omega_max) go alongside.
       robot_radius: collision radius [m]. dt: control period [s].
-      K: samples. N: horizon steps. lambda_: cost sensitivity. Sigma: variance of omega noise.
+      K: samples. N: horizon steps. lambda_: cost sensitivity.
+      Sigma: sampling variance of each control, in its own units (default: the agent's, e.g.
+        0.1 (rad/s)^2 for a turn rate, 1 (m/s)^2 for a velocity); a number for 1 control.
+      gamma: weight of the importance term gamma lambda sum_i u_i^T Sigma^-1 eps_i (1: paper).
       alpha: static collision weight. beta: dynamic collision weight (dc). P: futures per
-      moving obstacle (dc). seed: int, None or np.random.Generator.
-      perturbation: "constant" (one eps per sample over the horizon, the paper's choice) or
-        "time_varying" (independent eps per step).
+        moving obstacle (dc). seed: int, None or np.random.Generator.
+      perturbation: "constant" (one eps per sample over the horizon, paper Sec. IV-A),
+        "time_varying" (independent per step) or "mixed" (the sum of one constant and one
+        time-varying draw, each N(0, Sigma)); default: the agent's.
       resolution: cost-map cell size [m].
+      obstacle_margin: added to every moving obstacle's radius in the cost [m].
     """
 
     name = None
@@ -122,57 +142,60 @@ class Controller:
     def __init__(
         self,
         *,
-        v=defaults.V,
-        r_min=defaults.R_MIN,
+        agent="dubins",
         robot_radius=defaults.ROBOT_RADIUS,
         dt=defaults.DT,
         K=defaults.K,
         N=defaults.N,
         lambda_=defaults.LAMBDA,
-        Sigma=defaults.SIGMA,
+        Sigma=None,
+        gamma=defaults.GAMMA,
         alpha=defaults.ALPHA,
         beta=defaults.BETA,
         P=defaults.P,
         seed=None,
-        perturbation="constant",
+        perturbation=None,
         resolution=RESOLUTION,
+        obstacle_margin=0.0,
+        **agent_params,
     ):
-        self.v = _positive("v", v)
-        self.r_min = _positive("r_min", r_min)
+        self.agent = make_agent(agent, **agent_params)
         self.robot_radius = _positive("robot_radius", robot_radius, allow_zero=True)
         self.dt = _positive("dt", dt)
         self.K = _positive("K", K, integer=True)
         self.N = _positive("N", N, integer=True)
         self.lambda_ = _positive("lambda_", lambda_)
-        Sigma = np.asarray(Sigma, dtype=float)
-        if Sigma.size != 1:
-            raise ValueError(f"Sigma must be a scalar variance (one control input); got {Sigma!r}")
-        self.Sigma = _positive("Sigma", float(Sigma.ravel()[0]))
+        self.Sigma = self.agent.variances(Sigma)
+        self.gamma = _positive("gamma", gamma, allow_zero=True)
         self.alpha = _positive("alpha", alpha, allow_zero=True)
         self.beta = _positive("beta", beta, allow_zero=True)
         self.P = _positive("P", P, integer=True)
+        perturbation = self.agent.default_perturbation if perturbation is None else perturbation
         if perturbation not in PERTURBATIONS:
             raise ValueError(f"perturbation must be one of {PERTURBATIONS}; got {perturbation!r}")
         self.perturbation = perturbation
         self.resolution = _positive("resolution", resolution)
+        self.obstacle_margin = _positive("obstacle_margin", obstacle_margin, allow_zero=True)
         if seed is not None and not isinstance(seed, (numbers.Integral, np.random.Generator)):
             raise ValueError(f"seed must be None, an int or a np.random.Generator; got {seed!r}")
         self.seed = seed
         tune_malloc()
-        self.omega_max = defaults.omega_max(self.v, self.r_min)
-        self.sigma = math.sqrt(self.Sigma)
+        self.sigma = np.sqrt(self.Sigma)
+        # gamma lambda Sigma^-1 of the importance term, per control
+        self._importance_weight = (self.gamma * self.lambda_) / self.Sigma
         self._grid = None
         self.rng = None
         self.reset(seed)
 
     own_params = (
-        "v", "r_min", "robot_radius", "dt", "K", "N", "lambda_", "Sigma", "alpha", "beta", "P",
-        "seed", "perturbation", "resolution",
+        "agent", "robot_radius", "dt", "K", "N", "lambda_", "Sigma", "gamma", "alpha", "beta",
+        "P", "seed", "perturbation", "resolution", "obstacle_margin",
     )  # fmt: skip
 
     @classmethod
     def param_names(cls):
-        """Keyword parameters of this controller (each class lists its own in `own_params`)."""
+        """Keyword parameters of this controller (each class lists its own in `own_params`);
+        the agent's parameters come on top (`make_controller` checks both)."""
         names = []
         for klass in reversed(cls.__mro__):
             names += [n for n in klass.__dict__.get("own_params", ()) if n not in names]
@@ -180,25 +203,36 @@ class Controller:
 
     @property
     def params(self):
-        """All parameters as a dict (for records)."""
-        return {n: getattr(self, n) for n in self.param_names() if n != "seed"} | {
-            "seed": None if isinstance(self.seed, np.random.Generator) else self.seed
+        """All parameters as a dict (for records): the controller's and its agent's."""
+        out = {n: getattr(self, n) for n in self.param_names() if n not in ("seed", "agent")}
+        out["Sigma"] = self.Sigma.tolist()
+        return {
+            "agent": self.agent.name,
+            **self.agent.params,
+            **out,
+            "seed": None if isinstance(self.seed, np.random.Generator) else self.seed,
         }
 
+    @property
+    def nu(self):
+        """Number of controls of the agent."""
+        return self.agent.nu
+
     def reset(self, seed=None):
-        """Start a new episode: straight-ahead warm start; re-seed when `seed` is given."""
+        """Start a new episode: the agent's first guess on the next step; re-seed when `seed`
+        is given."""
         if seed is not None:
             self.seed = seed
         if self.rng is None or seed is not None:
             s = self.seed
             self.rng = s if isinstance(s, np.random.Generator) else np.random.default_rng(s)
-        self.U = np.zeros(self.N)
+        self.U = None  # set from the agent's first guess at the first step
         self.diagnostics = Diagnostics()
 
     # --- one control step -------------------------------------------------------------------
 
     def act(self, state, goal, static=None, moving=None, obstacle_model=None):
-        """Turn rate to apply now.
+        """Controls to apply now.
 
         Args:
           state: (3,) x, y, theta. goal: (2,) x, y.
@@ -206,7 +240,7 @@ class Controller:
           moving: (L, 4) x, y, heading, radius of moving cylinders now, or None.
           obstacle_model: (4,) v_mean, v_std, omega_mean, omega_std of the moving obstacles.
         Returns:
-          omega (float) within [-v / r_min, v / r_min].
+          (nu,) controls within the agent's bounds (dubins: the turn rate omega).
         """
         state = np.asarray(state, dtype=float)
         goal = np.asarray(goal, dtype=float)
@@ -220,19 +254,22 @@ class Controller:
         if self._grid is None or not self._grid.matches(static):
             self._grid = OccupancyGrid(static, self.robot_radius, self.resolution)
         self._goal = goal
+        if self.U is None:
+            self.U = self.agent.project(self.agent.first_guess(state, goal, self.N), axis=1)
         moving = valid_cylinders(moving, "moving", columns=4)
         self._prepare_obstacles(state, moving, obstacle_model)
-        omega = self._solve(state)
-        self.diagnostics.action = omega
-        return omega
+        u = self._solve(state)
+        self.diagnostics.action = u
+        return u
 
     def _prepare_obstacles(self, state, moving, obstacle_model):
         """Moving obstacles seen as static at their current positions (alpha weight)."""
-        reach = self.v * self.N * self.dt + self.robot_radius + moving[:, 3]
+        radius = moving[:, 3] + self.obstacle_margin
+        reach = self.agent.max_speed * self.N * self.dt + self.robot_radius + radius
         near = np.hypot(moving[:, 0] - state[0], moving[:, 1] - state[1]) <= reach
         frozen = moving[near]
         self._tracks = np.broadcast_to(frozen[:, None, :2], (len(frozen), self.N + 1, 2))
-        self._track_distance = frozen[:, 3] + self.robot_radius
+        self._track_distance = radius[near] + self.robot_radius
         self._track_weight = self.alpha
 
     def _solve(self, state):
@@ -241,27 +278,38 @@ class Controller:
     # --- building blocks --------------------------------------------------------------------
 
     def sample(self):
-        """Perturbations eps (N, K) drawn from N(0, Sigma), time-major."""
+        """Perturbations eps (N, nu, K) drawn from N(0, Sigma), time-major.
+
+        constant: one draw per sample and control (kept in self._raw (nu, K)), the same at
+        every step; time_varying: independent draws per step; mixed: their sum.
+        """
+        shape = (self.N, self.nu, self.K)
+        self._raw = None
+        if self.perturbation == "time_varying":
+            return self.rng.standard_normal(shape) * self.sigma[:, None]
+        raw = self.rng.standard_normal((self.nu, self.K)) * self.sigma[:, None]
         if self.perturbation == "constant":
-            self._raw = self.rng.standard_normal(self.K) * self.sigma  # (K,) one eps per sample
-            return np.broadcast_to(self._raw, (self.N, self.K))
-        return self.rng.standard_normal((self.N, self.K)) * self.sigma
+            self._raw = raw
+            return np.broadcast_to(raw, shape)
+        return raw + self.rng.standard_normal(shape) * self.sigma[:, None]
 
     def controls(self, U0, eps):
-        """Bounded controls clip(U0 + eps) (N, K) and the perturbations that remain (N, K).
+        """Bounded controls project(U0 + eps) (N, nu, K) and the perturbations that remain.
 
-        The remaining (clipped) perturbation enters the importance term, the weighted update and
-        the clustering features, so the update U0 + sum_k w_k eps_k stays within the bound.
+        The remaining (projected) perturbation enters the importance term, the weighted update
+        and the clustering features, so the update U0 + sum_k w_k eps_k stays within the
+        bounds (they are convex).
         """
-        u = np.clip(U0[:, None] + eps, -self.omega_max, self.omega_max)
-        return u, u - U0[:, None]
+        u = self.agent.project(U0[:, :, None] + eps)
+        return u, u - U0[:, :, None]
 
     def evaluate(self, x0, u, starts=1):
-        """Rollouts and costs. x0: (3,) or (3, R); u: (N, R). Returns states (N+1, 3, R), J (R,).
+        """Rollouts and costs. x0: (3,) or (3, R); u: (N, nu, R). Returns states (N+1, 3, R),
+        J (R,).
 
         starts = S > 1: x0 (3, S) start states that all take the R sequences; R becomes S R.
         """
-        states = rollout_time_major(x0, u, self.v, self.dt, starts)
+        states = self.agent.rollout(x0, u, self.dt, starts)
         x, y = states[:, 0], states[:, 1]
         J = goal_distance(x, y, self._goal)
         if not self._grid.empty and self.alpha:
@@ -271,11 +319,18 @@ class Controller:
         return states, J
 
     def importance(self, U0, eps):
-        """lambda * sum_i u_i Sigma^-1 eps_i for each sample (K,)."""
-        return (self.lambda_ / self.Sigma) * (U0 @ eps)
+        """gamma lambda sum_i u_i^T Sigma^-1 eps_i for each sample (K,)."""
+        w = self._importance_weight
+        S = w[0] * (U0[:, 0] @ eps[:, 0])
+        for j in range(1, self.nu):
+            S += w[j] * (U0[:, j] @ eps[:, j])
+        return S
 
     def finish(self, plan):
-        """Apply the plan's first control and warm-start the next step by shifting it."""
+        """Apply the plan's first controls and warm-start the next step by shifting it.
+
+        plan: (N, nu). Returns plan[0] (nu,).
+        """
         self.U = np.concatenate([plan[1:], plan[-1:]])
         self.diagnostics.plan = plan
-        return float(plan[0])
+        return plan[0].copy()

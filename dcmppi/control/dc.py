@@ -8,7 +8,8 @@ theta = 1 / P (a Monte-Carlo collision probability) and a state x_i pays
 beta * sum_l sum_p theta * 1[|p_i - o_l^p(t_i)| <= robot_radius + r_l] (paper Eq. 30-31).
 
 An obstacle is skipped when none of its futures can reach any rollout within the horizon:
-|p_0 - o_l(0)| > (v + max_p v_lp) N dt + robot_radius + r_l. This is exact, not a heuristic.
+|p_0 - o_l(0)| > (v + max_p v_lp) N dt + robot_radius + r_l, with v the agent's top speed and
+r_l the obstacle's radius plus `obstacle_margin`. This is exact, not a heuristic.
 
 Moving obstacles enter dc's cost only through these futures (their t = 0 positions included,
 with weight beta), not also as alpha-weighted static obstacles: the paper's augmented cost
@@ -56,10 +57,12 @@ class DCMPPI(ClusteredMPPI):
                 f"omega_std >= 0; got {obstacle_model}"
             )
         speed, turn = sample_speeds(self.rng, obstacle_model, len(moving), self.P)
-        reach = (self.v + speed.max(axis=1)) * self.N * self.dt + self.robot_radius + moving[:, 3]
+        radius = moving[:, 3] + self.obstacle_margin
+        top = self.agent.max_speed + speed.max(axis=1)
+        reach = top * self.N * self.dt + self.robot_radius + radius
         near = np.hypot(moving[:, 0] - state[0], moving[:, 1] - state[1]) <= reach
         futures = obstacle_futures(moving[near], speed[near], turn[near], self.N, self.dt)
         self._tracks = futures.reshape(-1, self.N + 1, 2)
-        self._track_distance = np.repeat(moving[near, 3] + self.robot_radius, self.P)
+        self._track_distance = np.repeat(radius[near] + self.robot_radius, self.P)
         self._track_weight = self.beta / self.P
         self.diagnostics.obstacle_samples = futures

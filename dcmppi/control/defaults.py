@@ -6,9 +6,13 @@ Names follow the paper: K samples, N horizon steps, lambda_, Sigma, alpha, beta,
 
 import math
 
-# Robot and world (shared by the plant in tasks/ and the analytic model in dcmppi/).
-V = 1.0  # constant forward speed v [m/s] (paper Fig. 4)
-R_MIN = 1.0  # minimum turning radius [m]; |omega| <= V / R_MIN
+# Robots (SPEC section 5; shared by the plants in tasks/ and the agents in control/agents/).
+V = 1.0  # dubins: constant forward speed v [m/s] (paper Fig. 4)
+R_MIN = 1.0  # dubins: minimum turning radius [m]; |omega| <= V / R_MIN
+UNICYCLE_V_MAX = 1.0  # unicycle: 0 <= v <= v_max [m/s]
+UNICYCLE_OMEGA_MAX = 1.0  # unicycle: |omega| <= omega_max [rad/s]
+HOLONOMIC_V_MAX = 1.5  # holonomic: |(u_x, u_y)| <= v_max [m/s] (SPEC section 4)
+HOLONOMIC_OMEGA_MAX = 1.0  # holonomic: |u_theta| <= omega_max [rad/s]
 ROBOT_RADIUS = 0.5  # robot collision radius [m]
 DT = 0.1  # control period [s]
 PHYSICS_TIMESTEP = 0.01  # MuJoCo timestep [s] -> 10 substeps per control step
@@ -26,9 +30,11 @@ MIN_START_GOAL_DISTANCE = 30.0
 K = 500  # samples (paper)
 N = 50  # horizon steps, 5 s (chosen)
 LAMBDA = 1.0  # lambda, cost sensitivity (paper)
-SIGMA = 0.1  # Sigma, variance of the omega perturbation (paper)
+SIGMA = 0.1  # Sigma, variance of a turn-rate perturbation [(rad/s)^2] (paper)
+SIGMA_VELOCITY = 1.0  # Sigma of a velocity perturbation [(m/s)^2] (SPEC sections 4, 5)
+GAMMA = 1.0  # gamma, weight of the importance term (1: the paper's Alg. 2)
 ALPHA = 1000.0  # alpha, static collision weight (paper)
-BETA = 10.0  # beta, dynamic collision weight (paper)
+BETA = 100.0  # beta, dynamic collision weight (paper: 10, nearly inert at this cost scale)
 P = 25  # sampled futures per moving obstacle (paper)
 
 # Moving obstacles of the crowd (SPEC section 4): uniform ranges, and the Gaussian

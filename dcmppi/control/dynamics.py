@@ -1,7 +1,7 @@
-"""Analytic Dubins models for the agent's rollouts and the moving obstacles' futures.
+"""Exact arcs: the Dubins and unicycle agents' rollouts and the moving obstacles' futures.
 
 The plant holds each command for one control period dt, so the models integrate exactly over
-that period with the turn rate omega held constant (a circular arc):
+that period with the speed v and turn rate omega held constant (a circular arc):
 
     a = omega dt / 2
     x += v dt sinc(a) cos(theta + a),   y += v dt sinc(a) sin(theta + a),   theta += 2 a
@@ -72,14 +72,15 @@ def dubins_step(state, omega, v, dt):
 
 
 def rollout_time_major(x0, omega, v, dt, starts=1):
-    """Batched exact rollouts, time-major.
+    """Batched exact arc rollouts (Dubins and unicycle), time-major.
 
     Args:
       x0: (3,) common initial state, (3, K) one per rollout, or with starts = S > 1, (3, S):
         S initial states that all take the same K control sequences (Tube-MPPI's nominal and
         real states); the heading increments and sinc terms are then computed once.
       omega: (N, K) turn rates, already within the control bound.
-      v, dt: speed and control period.
+      v: forward speed, a number (Dubins) or (N, K) per period (unicycle) [m/s].
+      dt: control period [s].
     Returns:
       (N + 1, 3, S K) states: [i, 0] = x, [i, 1] = y, [i, 2] = theta at step i (x_0 .. x_N);
       columns s K .. (s + 1) K - 1 start from x0[:, s].
@@ -87,9 +88,12 @@ def rollout_time_major(x0, omega, v, dt, starts=1):
     n, k = omega.shape
     out = np.empty((n + 1, 3, starts, k))
     out[0] = np.reshape(x0, (3, starts, -1))
-    a, mid, step = _arcs(out, omega, 0.5 * dt, v * dt)
+    scalar = np.ndim(v) == 0
+    a, mid, step = _arcs(out, omega, 0.5 * dt, v * dt if scalar else dt)
     if step is None:  # a sharp turn: sinc beyond its series
-        step = (v * dt) * sinc(a)
+        step = (v * dt if scalar else dt) * sinc(a)
+    if not scalar:
+        step *= v
     _positions(out, step, np.cos(mid), np.sin(mid))
     return out.reshape(n + 1, 3, starts * k)
 

@@ -1,4 +1,4 @@
-"""Baseline MPPI (paper Alg. 1) over the analytic Dubins model."""
+"""Baseline MPPI (paper Alg. 1) over an analytic agent model."""
 
 import numpy as np
 
@@ -16,12 +16,13 @@ def mppi_update(U0, eps, S, lambda_):
     """Alg. 1: U = U0 + sum_k w_k eps_k.
 
     Args:
-      U0: (N,) reference controls. eps: (N, K) perturbations (time-major). S: (K,) costs.
+      U0: (N, nu) reference controls. eps: (N, nu, K) perturbations (time-major). S: (K,) costs.
     Returns:
-      U (N,), weights (K,).
+      U (N, nu), weights (K,).
     """
     w = mppi_weights(S, lambda_)
-    return U0 + eps @ w, w
+    n, nu, k = eps.shape
+    return U0 + (np.reshape(eps, (n * nu, k)) @ w).reshape(n, nu), w
 
 
 def effective_sample_size(w):
@@ -38,7 +39,7 @@ class MPPI(Controller):
     """
 
     def rollouts(self, state):
-        """Sample, roll out and score: eps (N, K), states (N + 1, 3, K), J (K,), S (K,)."""
+        """Sample, roll out and score: eps (N, nu, K), states (N + 1, 3, K), J (K,), S (K,)."""
         u, eps = self.controls(self.U, self.sample())
         states, J = self.evaluate(state, u)
         S = J + self.importance(self.U, eps)
@@ -46,7 +47,7 @@ class MPPI(Controller):
 
     def record(self, eps, states, J, S):
         d = self.diagnostics
-        d.eps, d.states, d.J, d.S = eps.T, states.transpose(2, 0, 1), J, S
+        d.eps, d.states, d.J, d.S = eps.transpose(2, 0, 1), states.transpose(2, 0, 1), J, S
 
     def _solve(self, state):
         eps, states, J, S = self.rollouts(state)

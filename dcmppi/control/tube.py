@@ -5,81 +5,42 @@ Each step solves MPPI twice with the same perturbations and warm start: from the
 and from the real state x (one batch of 2K rollouts). When the real solve's best cost is below the
 nominal's plus `reset_threshold`, the nominal state resets to the real one and the real solve's
 plan is used; otherwise the nominal plan is kept. A time-varying LQR along the nominal trajectory
-(Dubins model linearised about the exact discrete step, Riccati backward pass with weights
-Q = diag(q_pos, q_pos, q_theta), R = r_omega, Q_N = Q) gives the applied control
-u = clip(u_nom_0 - K_0 (x - z)) (heading error wrapped). The nominal state then moves exactly one
-control period with u_nom_0 on the analytic model. Constant speed makes the along-track error
-uncontrollable, so the nominal also resets whenever |x - z| (position) exceeds `max_deviation`.
+(the agent's exact step linearised, Riccati backward pass with weights Q = diag(q_pos, q_pos,
+q_theta), R = r_control I, Q_N = Q) gives the applied control u = project(u_nom_0 - K_0 (x - z))
+(heading error wrapped). The nominal state then moves exactly one control period with u_nom_0
+on the analytic model. A constant-speed car cannot correct an along-track error, so the nominal
+also resets whenever |x - z| (position) exceeds `max_deviation`.
 """
 
 import numpy as np
 
+from .agents.dubins import Dubins, jacobian_terms
 from .controllers import _positive, register
-from .dynamics import dubins_step, sinc, wrap_angle
+from .dynamics import wrap_angle
 from .mppi import MPPI, effective_sample_size, mppi_update
 
 RESET_THRESHOLD = 5.0  # cost units (sum of N + 1 goal distances [m])
 MAX_DEVIATION = 1.0  # [m]
-Q_POS, Q_THETA, R_OMEGA = 1.0, 1.0, 1.0
-
-
-def jacobian_terms(theta, U, v, dt):
-    """The entries of the exact discrete Dubins step's Jacobians that vary along a trajectory.
-
-    A_i = I + c0_i e_x e_theta^T + c1_i e_y e_theta^T, B_i = (b0_i, b1_i, dt).
-
-    Args:
-      theta: (N + 1,) or more nominal headings (the first N are used); U: (N,) nominal controls.
-    Returns:
-      c0, c1, b0, b1: (N,) each.
-    """
-    a = 0.5 * U * dt
-    heading = theta[: len(U)] + a
-    s = sinc(a)
-    ds = np.where(
-        np.abs(a) < 1e-4, -a / 3.0, (a * np.cos(a) - np.sin(a)) / np.where(a == 0, 1, a) ** 2
-    )
-    c, sn = np.cos(heading), np.sin(heading)
-    return (
-        -v * dt * s * sn,
-        v * dt * s * c,
-        0.5 * dt * v * dt * (ds * c - s * sn),
-        0.5 * dt * v * dt * (ds * sn + s * c),
-    )
-
-
-def linearize(states, U, v, dt):
-    """Jacobians of the exact discrete Dubins step along a trajectory.
-
-    Args:
-      states: (N + 1, 3) nominal states; U: (N,) nominal controls.
-    Returns:
-      A: (N, 3, 3), B: (N, 3).
-    """
-    c0, c1, b0, b1 = jacobian_terms(states[:, 2], U, v, dt)
-    n = len(U)
-    A = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
-    A[:, 0, 2], A[:, 1, 2] = c0, c1
-    B = np.column_stack([b0, b1, np.full(n, dt)])
-    return A, B
+Q_POS, Q_THETA, R_CONTROL = 1.0, 1.0, 1.0
 
 
 def tvlqr_gains(A, B, Q, R, Qf):
     """Time-varying LQR gains for x_{i+1} = A_i x_i + B_i u_i, u_i = -K_i x_i (any A, B).
 
     Args:
-      A: (N, n, n), B: (N, n) single input; Q, Qf: (n, n); R: scalar.
+      A: (N, n, n), B: (N, n, m); Q, Qf: (n, n); R: (m, m).
     Returns:
-      K: (N, n).
+      K: (N, m, n).
     """
     P = np.array(Qf, dtype=float)
-    K = np.empty(B.shape)
+    R = np.atleast_2d(np.asarray(R, dtype=float))
+    K = np.empty((len(B), B.shape[2], B.shape[1]))
     for i in range(len(B) - 1, -1, -1):
         a, b = A[i], B[i]
         PA = P @ a
-        bPA = b @ PA
-        K[i] = bPA / (R + b @ P @ b)
-        P = Q + a.T @ PA - np.outer(bPA, K[i])
+        H = b.T @ PA  # B^T P A (m, n)
+        K[i] = np.linalg.solve(R + b.T @ P @ b, H)
+        P = Q + a.T @ PA - H.T @ K[i]
         P = 0.5 * (P + P.T)
     return K
 
@@ -124,9 +85,9 @@ def dubins_lqr_gain(c0, c1, b0, b1, b2, q_pos, q_theta, r):
 
 @register("tube")
 class TubeMPPI(MPPI):
-    """Tube-MPPI. Extra args: reset_threshold, max_deviation, q_pos, q_theta, r_omega."""
+    """Tube-MPPI. Extra args: reset_threshold, max_deviation, q_pos, q_theta, r_control."""
 
-    own_params = ("reset_threshold", "max_deviation", "q_pos", "q_theta", "r_omega")
+    own_params = ("reset_threshold", "max_deviation", "q_pos", "q_theta", "r_control")
 
     def __init__(
         self,
@@ -135,7 +96,7 @@ class TubeMPPI(MPPI):
         max_deviation=MAX_DEVIATION,
         q_pos=Q_POS,
         q_theta=Q_THETA,
-        r_omega=R_OMEGA,
+        r_control=R_CONTROL,
         **params,
     ):
         t = float(reset_threshold)
@@ -145,7 +106,7 @@ class TubeMPPI(MPPI):
         self.max_deviation = _positive("max_deviation", max_deviation)
         self.q_pos = _positive("q_pos", q_pos, allow_zero=True)
         self.q_theta = _positive("q_theta", q_theta, allow_zero=True)
-        self.r_omega = _positive("r_omega", r_omega)
+        self.r_control = _positive("r_control", r_control)
         super().__init__(**params)
 
     def reset(self, seed=None):
@@ -163,15 +124,15 @@ class TubeMPPI(MPPI):
         d = self.diagnostics
         d.weights, d.ess, d.nominal_reset = w, effective_sample_size(w), bool(reset)
         feedback = self._feedback(z, state, plan)
-        omega = float(np.clip(plan[0] - feedback, -self.omega_max, self.omega_max))
+        action = self.agent.project((plan[0] - feedback)[:, None], axis=0)[:, 0]
         d.nominal_state = z
-        self.nominal = dubins_step(z, plan[0], self.v, self.dt)
+        self.nominal = self.agent.step(z, plan[0], self.dt)
         self.U = np.concatenate([plan[1:], plan[-1:]])
         d.plan = plan
-        return omega
+        return action
 
     def _two_solves(self, z, state, u, eps):
-        """Rollouts from the nominal state z and the real state with the same controls u (N, K).
+        """Rollouts from the nominal state z and the real state with the same controls u.
 
         Returns the chosen solve's states (N + 1, 3, K), J (K,), S (K,) and the reset flag. When
         z equals the real state (after every reset on a noise-free model) both solves are the
@@ -196,13 +157,21 @@ class TubeMPPI(MPPI):
         return states[:, :, :K], J_nom, S_nom, reset
 
     def _feedback(self, z, state, plan):
-        """K_0 (x - z) of the time-varying LQR along the nominal plan (0 when x equals z)."""
+        """K_0 (x - z) (nu,) of the time-varying LQR along the nominal plan (0 when x is z)."""
         error = state - z
         error[2] = wrap_angle(error[2])
         if not error.any():  # K_0 @ 0 = 0: the gains are not needed
-            return 0.0
-        # Nominal headings: the running sum of the rollout's heading increments.
-        theta = np.cumsum(np.concatenate([[wrap_angle(z[2])], plan * self.dt]))
-        c0, c1, b0, b1 = jacobian_terms(theta, plan, self.v, self.dt)
-        gain = dubins_lqr_gain(c0, c1, b0, b1, self.dt, self.q_pos, self.q_theta, self.r_omega)
-        return gain @ error
+            return np.zeros(self.nu)
+        if isinstance(self.agent, Dubins):  # the scalar Riccati pass of the Dubins Jacobians
+            # Nominal headings: the running sum of the rollout's heading increments.
+            omega = plan[:, 0]
+            theta = np.cumsum(np.concatenate([[wrap_angle(z[2])], omega * self.dt]))
+            c0, c1, b0, b1 = jacobian_terms(theta, omega, self.agent.v, self.dt)
+            gain = dubins_lqr_gain(
+                c0, c1, b0, b1, self.dt, self.q_pos, self.q_theta, self.r_control
+            )
+            return np.array([gain @ error])
+        nominal = self.agent.rollout_one(z, plan, self.dt)
+        A, B = self.agent.jacobians(nominal, plan, self.dt)
+        Q = np.diag([self.q_pos, self.q_pos, self.q_theta])
+        return tvlqr_gains(A, B, Q, self.r_control * np.eye(self.nu), Q)[0] @ error

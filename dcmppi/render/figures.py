@@ -19,7 +19,6 @@ from pathlib import Path
 
 import numpy as np
 
-from dcmppi.control.dynamics import rollout
 from dcmppi.render.draw import COLORS, draw_world, pyplot
 from dcmppi.render.overlay import cluster_rgb
 
@@ -41,12 +40,17 @@ def write_figures(observation, runs, out_dir, title: str) -> dict:
       out_dir: folder for the PNG files.
       title: what the step is (task and seed), for the figure titles.
     Returns:
-      {"files": [paths], "actions": {controller: applied turn rate marked in the figure}}.
+      {"files": [paths], "actions": {controller: applied control marked in the figure},
+       "control": the name of the control on the value plot's axis}.
     """
     plt = pyplot()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     state = observation["robot_pose"]
+    first = next(iter(runs.values()))[0]
+    j = steering_control(first, observation["goal"])
+    control = first.agent.controls[j]
+    U0 = first.agent.first_guess(state, observation["goal"], 1)[0, j]  # the warm start
 
     fig, axes = plt.subplots(1, len(runs), figsize=(4.2 * len(runs), 3.6), sharey=True)
     axes = np.atleast_1d(axes)
@@ -54,15 +58,15 @@ def write_figures(observation, runs, out_dir, title: str) -> dict:
         d = ctrl.diagnostics
         J0 = d.J.min()
         value = np.exp(-(d.J - J0) / ctrl.lambda_)
-        ax.scatter(d.eps[:, 0], value, s=9, c=cluster_rgb(d.labels, len(value)), lw=0)
-        U0 = 0.0  # the first step's warm start is straight ahead
+        ax.scatter(d.eps[:, 0, j], value, s=9, c=cluster_rgb(d.labels, len(value)), lw=0)
         star = np.exp(-(plan_cost(ctrl, state) - J0) / ctrl.lambda_)
         ax.plot(
-            action - U0, star, "*", ms=18, color="gold", mec="k", label=f"applied {action:+.3f}"
-        )
+            action[j] - U0, star, "*", ms=18, color="gold", mec="k",
+            label=f"applied {action[j]:+.3f}",
+        )  # fmt: skip
         clusters = 0 if d.labels is None else int(d.labels.max()) + 1
         ax.set_title(f"{name}" + (f": {clusters} clusters" if d.labels is not None else ""))
-        ax.set_xlabel("perturbation of omega [rad/s]")
+        ax.set_xlabel(f"perturbation of {control} (first step)")
         ax.legend(loc="upper right", fontsize=8)
     axes[0].set_ylabel("value exp(-(J - min J) / lambda)")
     t = observation["robot_pose"]
@@ -89,7 +93,7 @@ def write_figures(observation, runs, out_dir, title: str) -> dict:
             axes[1].plot(track[:, 0], track[:, 1], color="tab:orange", lw=0.6, alpha=0.5)
     axes[1].set_title("sampled obstacle futures (dc)")
     for name, (ctrl, _) in runs.items():
-        path = rollout(state, ctrl.diagnostics.plan, ctrl.v, ctrl.dt)
+        path = ctrl.agent.rollout_one(state, ctrl.diagnostics.plan, ctrl.dt)
         axes[2].plot(path[:, 0], path[:, 1], color=COLORS.get(name), lw=2.2, label=name)
     axes[2].legend(fontsize=8)
     axes[2].set_title("each algorithm's plan")
@@ -100,7 +104,23 @@ def write_figures(observation, runs, out_dir, title: str) -> dict:
     return {
         "files": [str(values_png), str(rollouts_png)],
         "actions": {name: action for name, (_, action) in runs.items()},
+        "control": control,
     }
+
+
+def steering_control(controller, goal) -> int:
+    """Index of the control that moves the last step's rollouts sideways the most: the one whose
+    first-step perturbation correlates most with the rollouts' final offset across the line to
+    the goal (dubins and unicycle: omega; holonomic: the lateral velocity)."""
+    d = controller.diagnostics
+    start = d.states[0, 0, :2]
+    direction = np.asarray(goal, dtype=float) - start
+    normal = np.array([-direction[1], direction[0]]) / max(np.hypot(*direction), 1e-12)
+    lateral = (d.states[:, -1, :2] - start) @ normal
+    eps = d.eps[:, 0, :]
+    spread = eps.std(axis=0) * lateral.std()
+    corr = np.abs(((eps - eps.mean(0)) * (lateral - lateral.mean())[:, None]).mean(0))
+    return int(np.argmax(np.where(spread > 0, corr / np.where(spread > 0, spread, 1), -1)))
 
 
 def _zoom(ax, state, goal, margin=4.0) -> None:

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from dcmppi.control.dynamics import rollout
 from dcmppi.render.video import add_polyline
 
 # Tableau-like cluster colours; noise and unclustered samples are grey.
@@ -87,7 +86,7 @@ class Overlay:
     def _plan(self, scene, d) -> None:
         c = self.controller
         x0 = d.states[0, 0]
-        path = rollout(x0, d.plan, c.v, c.dt)[:, :2]
+        path = c.agent.rollout_one(x0, d.plan, c.dt)[:, :2]
         add_polyline(scene, path[self._steps(len(path))], PLAN_RGBA, 0.1, 0.08)
 
     def _futures(self, scene, samples: np.ndarray) -> None:

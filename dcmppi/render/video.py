@@ -23,6 +23,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
 CAMERAS = ("top", "chase")
+_CAMERA_IN_MODEL = {"top": "top", "chase": "robot/chase"}  # the chase camera rides the robot
 _OFFSCREEN_BACKENDS = ("egl", "osmesa", "glfw")
 
 
@@ -154,7 +155,7 @@ class Renderer:
         lines separated by newlines.
         """
         self._context.make_current()
-        self._camera.fixedcamid = self._model.camera(camera).id
+        self._camera.fixedcamid = self._model.camera(_CAMERA_IN_MODEL.get(camera, camera)).id
         mujoco.mjv_updateScene(
             self._model,
             physics.data.ptr,

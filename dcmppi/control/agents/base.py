@@ -1,0 +1,223 @@
+"""The analytic agent interface and its registry (SPEC section 5).
+
+Every agent has the planar state x = (x, y, theta) [m, m, rad] and nu controls u with box
+bounds lower <= u <= upper and, for some, a norm bound |u[norm_axes]| <= norm_limit (a
+holonomic robot's planar speed). The planners see an agent through:
+
+    agent.controls            names of the nu controls, in order
+    agent.lower, agent.upper  (nu,) box bounds; agent.norm_axes, agent.norm_limit
+    agent.project(u)          controls (N, nu, K) moved into the bounds (clip, then norm)
+    agent.rollout(x0, u, dt)  states (N + 1, 3, K) of K control sequences u (N, nu, K)
+    agent.step(x, u, dt)      one exact control period, any leading shape
+    agent.jacobians(X, U, dt) A (N, 3, 3), B (N, 3, nu) of that step along a trajectory
+    agent.first_guess(x, goal, N)   the warm start (N, nu) of an episode's first step
+    agent.max_speed           fastest planar speed [m/s] (for what can be reached in a horizon)
+    agent.default_Sigma       sampling variance of each control, in its own units
+    agent.default_perturbation  "constant", "time_varying" or "mixed"
+
+A new agent is a subclass registered by name (see README, "Your own agent").
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+
+_AGENTS: dict[str, type] = {}
+
+
+def register_agent(name):
+    """Class decorator adding an Agent subclass to the registry under `name`."""
+
+    def add(cls):
+        if not (isinstance(cls, type) and issubclass(cls, Agent)):
+            raise TypeError(f"register_agent({name!r}) needs an Agent subclass, got {cls!r}")
+        _AGENTS[name] = cls
+        cls.name = name
+        return cls
+
+    return add
+
+
+def agent_names() -> list[str]:
+    """Registered agent names."""
+    return sorted(_AGENTS)
+
+
+def agent_class(name) -> type:
+    """The registered class of agent `name`; a ValueError names the valid agents."""
+    if name not in _AGENTS:
+        raise ValueError(f"unknown agent {name!r}; valid agents: {', '.join(agent_names())}")
+    return _AGENTS[name]
+
+
+def make_agent(agent="dubins", **params) -> Agent:
+    """An agent by registry name (or an Agent instance, returned as is) with its parameters."""
+    if isinstance(agent, Agent):
+        if params:
+            raise ValueError(
+                f"agent parameters {sorted(params)} given with an agent instance; "
+                "set them when constructing the agent"
+            )
+        return agent
+    cls = agent_class(agent)
+    unknown = sorted(set(params) - set(cls.param_names))
+    if unknown:
+        raise ValueError(
+            f"unknown parameter(s) {', '.join(unknown)} for agent {agent!r}; "
+            f"valid: {', '.join(cls.param_names) or '(none)'}"
+        )
+    return cls(**params)
+
+
+def agent_param_names() -> list[str]:
+    """Every registered agent's parameter names (the robot parameters a task and a planner
+    share), in registry order without repeats."""
+    names = []
+    for name in agent_names():
+        names += [p for p in _AGENTS[name].param_names if p not in names]
+    return names
+
+
+def positive(name, value, allow_zero=False):
+    """`value` as a float, or a ValueError naming `name` when it is not a finite number > 0."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+        raise ValueError(f"{name} must be a finite number; got {value!r}")
+    if value < 0 or (value == 0 and not allow_zero):
+        raise ValueError(f"{name} must be {'>= 0' if allow_zero else '> 0'}; got {value!r}")
+    return float(value)
+
+
+class Agent:
+    """Base of the analytic agent models (see the module docstring for the interface).
+
+    Subclasses set `controls`, `param_names` (keyword parameters, also accepted by the tasks
+    for the plant), `default_Sigma`, `default_perturbation`, and in __init__ the bounds via
+    `set_bounds`; they implement `rollout`, `step` and `jacobians`.
+    """
+
+    name = None
+    controls: tuple[str, ...] = ()
+    param_names: tuple[str, ...] = ()
+    default_Sigma: tuple[float, ...] = ()
+    default_perturbation = "constant"
+    norm_axes: tuple[int, ...] | None = None
+    norm_limit = math.inf
+
+    @property
+    def nu(self) -> int:
+        """Number of controls."""
+        return len(self.controls)
+
+    @property
+    def params(self) -> dict:
+        """The agent's parameters by name (for records and for the plant)."""
+        return {n: getattr(self, n) for n in self.param_names}
+
+    def set_bounds(self, lower, upper, norm_limit=math.inf):
+        """Checks and stores the box bounds (nu,) and the norm bound."""
+        lower = np.array(lower, dtype=float).reshape(-1)
+        upper = np.array(upper, dtype=float).reshape(-1)
+        if lower.shape != (self.nu,) or upper.shape != (self.nu,):
+            raise ValueError(
+                f"agent {self.name!r}: bounds must have one entry per control {self.controls}; "
+                f"got lower {lower.tolist()}, upper {upper.tolist()}"
+            )
+        bad = [
+            c
+            for c, lo, hi in zip(self.controls, lower, upper, strict=True)
+            if not (np.isfinite(lo) and np.isfinite(hi) and lo <= hi)
+        ]
+        if bad:
+            raise ValueError(
+                f"agent {self.name!r}: bounds of control(s) {', '.join(bad)} must be finite "
+                f"with lower <= upper; got lower {lower.tolist()}, upper {upper.tolist()}"
+            )
+        if self.norm_axes is not None and not norm_limit > 0:
+            raise ValueError(f"agent {self.name!r}: norm limit must be > 0; got {norm_limit}")
+        self.lower, self.upper, self.norm_limit = lower, upper, float(norm_limit)
+        lower.flags.writeable = upper.flags.writeable = False
+
+    @property
+    def max_speed(self) -> float:
+        """Fastest planar speed the controls allow [m/s]."""
+        raise NotImplementedError
+
+    # --- controls ---------------------------------------------------------------------------
+
+    def project(self, u, axis=1):
+        """Controls moved into the bounds: clipped to the box, then (norm-bounded agents)
+        scaled back onto |u[norm_axes]| <= norm_limit. u: the controls along `axis`
+        ((N, nu, K) by default). Returns a new array."""
+        u = np.asarray(u, dtype=float)
+        if u.shape[axis] != self.nu:
+            raise ValueError(
+                f"agent {self.name!r} has {self.nu} control(s) {self.controls}; got an array "
+                f"of shape {u.shape} with {u.shape[axis]} along axis {axis}"
+            )
+        shape = [1] * u.ndim
+        shape[axis] = self.nu
+        if self.nu == 1:  # scalar bounds: the same values, less broadcasting
+            u = np.clip(u, self.lower[0], self.upper[0])
+        else:
+            u = np.clip(u, self.lower.reshape(shape), self.upper.reshape(shape))
+        if self.norm_axes is not None:
+            part = np.take(u, self.norm_axes, axis=axis)
+            norm = np.sqrt(np.sum(part * part, axis=axis, keepdims=True))
+            scale = np.where(norm > self.norm_limit, self.norm_limit / np.maximum(norm, 1e-300), 1)
+            index = [slice(None)] * u.ndim
+            index[axis] = list(self.norm_axes)
+            u[tuple(index)] = part * scale
+        return u
+
+    def variances(self, Sigma=None, allow_zero=False):
+        """Sigma as (nu,) variances, one per control in its own units: a sequence of nu, a number
+        for a 1-control agent, or None for `default_Sigma`. A ValueError names a bad entry."""
+        values = np.array(self.default_Sigma if Sigma is None else Sigma, dtype=float)
+        if values.size != self.nu or values.ndim > 1:
+            raise ValueError(
+                f"Sigma must hold one variance per control {self.controls} of agent "
+                f"{self.name!r} (each in its control's units); got {Sigma!r}"
+            )
+        for c, s in zip(self.controls, values.reshape(-1), strict=True):
+            positive(f"Sigma of {c}", float(s), allow_zero=allow_zero)
+        return values.reshape(-1)
+
+    def first_guess(self, state, goal, N):
+        """Warm start (N, nu) of an episode's first step (default: zero controls)."""
+        return np.zeros((N, self.nu))
+
+    # --- dynamics ---------------------------------------------------------------------------
+
+    def rollout(self, x0, u, dt, starts=1):
+        """Batched exact rollouts, time-major.
+
+        Args:
+          x0: (3,) common initial state, (3, K) one per rollout, or with starts = S > 1, (3, S):
+            S initial states that all take the same K control sequences.
+          u: (N, nu, K) controls, already within the bounds.
+          dt: control period [s].
+        Returns:
+          (N + 1, 3, S K) states x_0 .. x_N; columns s K .. (s + 1) K - 1 start from x0[:, s].
+        """
+        raise NotImplementedError
+
+    def step(self, state, u, dt):
+        """One exact control period: state (..., 3), u (..., nu) -> (..., 3), theta unwrapped."""
+        raise NotImplementedError
+
+    def jacobians(self, states, U, dt):
+        """A_i = d x_{i+1} / d x_i (N, 3, 3) and B_i = d x_{i+1} / d u_i (N, 3, nu) of `step`
+        along the trajectory states (N + 1, 3) under controls U (N, nu)."""
+        raise NotImplementedError
+
+    def rollout_one(self, state, U, dt):
+        """States (N + 1, 3) of one control sequence U (N, nu) from state (3,)."""
+        U = np.asarray(U, dtype=float).reshape(-1, self.nu)
+        return self.rollout(np.asarray(state, dtype=float), U[:, :, None], dt)[:, :, 0]
+
+    def __repr__(self):
+        args = ", ".join(f"{k}={v!r}" for k, v in self.params.items())
+        return f"{type(self).__name__}({args})"

@@ -141,7 +141,7 @@ def cmd_figure(args) -> int:
     observation, runs, _ = first_step(spec, controllers)
     result = write_figures(observation, runs, args.out, f"{spec.task}, seed {spec.seed}")
     for name, action in result["actions"].items():
-        print(f"{name:10s} applies omega = {action:+.4f} rad/s")
+        print(f"{name:10s} applies {', '.join(f'{a:+.4f}' for a in action)}")
     print("wrote " + ", ".join(result["files"]), file=sys.stderr)
     return 0
 

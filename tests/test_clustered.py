@@ -1,16 +1,25 @@
-"""Algorithm 2: the two-valley case, a controller facing a blocking cylinder."""
+"""Algorithm 2: the features, the two-valley case (paper Fig. 2) on recorded steps, cluster
+updates."""
 
 import numpy as np
 import pytest
 
 import dcmppi
-from dcmppi.control.clustered import cluster_features, cluster_labels, cluster_updates
+from dcmppi.bench.runner import Episode, EpisodeSpec
+from dcmppi.control.clustered import (
+    cluster_features,
+    cluster_labels,
+    cluster_updates,
+    dbscan_radius,
+    mean_std,
+)
+from dcmppi.control.costs import goal_distance
 from dcmppi.control.mppi import mppi_update
 
 
 def two_valley(eps):
-    """Paper Fig. 2: good modes at +-0.5, a ridge of high cost at the mean 0."""
-    return 1.0 * np.minimum((eps - 0.5) ** 2, (eps + 0.5) ** 2) * 20 + 50.0 * (np.abs(eps) < 0.25)
+    """Paper Fig. 2: good modes at +-0.5, a ridge of high cost (a collision) around the mean 0."""
+    return 20.0 * np.minimum((eps - 0.5) ** 2, (eps + 0.5) ** 2) + 1000.0 * (np.abs(eps) < 0.25)
 
 
 def test_two_valley_mppi_on_ridge_clustered_in_a_mode():
@@ -21,11 +30,110 @@ def test_two_valley_mppi_on_ridge_clustered_in_a_mode():
     S = two_valley(raw)
     U, _ = mppi_update(np.zeros((1, 1)), eps, S, lam)
     assert abs(U[0, 0]) < 0.25  # the weighted average lands on the ridge
-    labels = cluster_labels(cluster_features(eps, S, lam, [sigma], raw=raw[None]))
+    radius = dbscan_radius(1)
+    labels = cluster_labels(cluster_features(eps, S, [sigma], 5 * radius / 1000.0), radius)
     Uc, w = cluster_updates(np.zeros((1, 1)), eps, S, lam, labels)
     np.testing.assert_allclose(np.bincount(labels[labels >= 0], w[labels >= 0]), 1.0)
     best = Uc[np.argmin(two_valley(Uc[:, 0, 0])), 0, 0]
     assert 0.3 < abs(best) < 0.7  # inside one mode
+    left, right = labels[np.argmin(np.where(raw < 0, S, np.inf))], labels[np.argmin(S)]
+    assert min(left, right) >= 0 and left != right  # each valley of the cost is a cluster
+    ridge = np.abs(raw) < 0.25
+    assert not np.isin(labels[ridge], [left, right]).any()
+
+
+def test_features_are_horizon_means_in_std_units_and_scaled_costs():
+    rng = np.random.default_rng(4)
+    eps, S = rng.normal(size=(6, 2, 30)), rng.uniform(10, 20, 30)
+    scale = np.array([0.5, 2.0])
+    F = cluster_features(eps, S, scale, 0.01)
+    np.testing.assert_allclose(F[:, :2], eps.mean(axis=0).T / scale, rtol=1e-13)
+    np.testing.assert_allclose(F[:, 2], (S - S.min()) * 0.01, rtol=1e-13)
+    with pytest.raises(ValueError, match="cluster_features needs"):
+        cluster_features(eps, S, [1.0], 0.01)
+    # the default radius and the std of a horizon mean for every perturbation kind
+    assert dbscan_radius(1) == pytest.approx(0.2019, abs=1e-4)
+    assert dbscan_radius(3) == pytest.approx(0.9162, abs=1e-4)
+    sigma = np.array([1.0, 0.3])
+    np.testing.assert_allclose(mean_std(sigma, "constant", 50), sigma)
+    np.testing.assert_allclose(mean_std(sigma, "time_varying", 50), sigma / np.sqrt(50))
+    np.testing.assert_allclose(mean_std(sigma, "mixed", 50), sigma * np.sqrt(1.02))
+
+
+@pytest.mark.parametrize("perturbation", ["constant", "time_varying", "mixed"])
+def test_features_of_unprojected_samples_are_standard_normal(perturbation):
+    ctrl = dcmppi.make_controller(
+        "clustered", agent="holonomic", seed=0, K=4000, perturbation=perturbation
+    )
+    eps = ctrl.sample()  # before projection
+    F = cluster_features(eps, np.zeros(ctrl.K), ctrl._feature_scale, 1.0)[:, :3]
+    np.testing.assert_allclose(F.mean(axis=0), 0, atol=0.06)
+    np.testing.assert_allclose(F.std(axis=0), 1, atol=0.05)
+
+
+def recorded_two_valley_steps(task, controller, seeds, **task_params):
+    """Run episodes and yield (diagnostics, peaks, ridges) at every step where two
+    runs of >= 20 collision-free samples (in the order of the first perturbation feature) are
+    separated by colliding samples spanning at least one DBSCAN radius: the two-valley case.
+    peaks: the lowest-cost sample of each run; ridges: the colliding samples between runs."""
+    for seed in seeds:
+        episode = Episode(EpisodeSpec(task, controller, seed=seed, task_params=task_params))
+        while not episode.done:
+            episode.step()
+            ctrl, d = episode.controller, episode.controller.diagnostics
+            states = d.states.transpose(1, 2, 0)
+            colliding = d.J - goal_distance(states[:, 0], states[:, 1], ctrl._goal) >= ctrl.alpha
+            f = d.features[:, 0]
+            order = np.argsort(f, kind="stable")
+            runs, current = [], []
+            for k in order:
+                if colliding[k]:
+                    runs.append(current)
+                    current = []
+                else:
+                    current.append(k)
+            runs.append(current)
+            runs = [np.array(r) for r in runs if len(r) >= 20]
+            gap = ctrl.dbscan_eps
+            pairs = [
+                (a, b)
+                for a, b in zip(runs, runs[1:], strict=False)
+                if f[b].min() - f[a].max() >= gap
+            ]
+            if pairs:
+                peaks = [r[np.argmin(d.S[r])] for pair in pairs for r in pair]
+                ridges = [colliding & (f > f[a].max()) & (f < f[b].min()) for a, b in pairs]
+                yield d, peaks, ridges
+
+
+@pytest.mark.parametrize(
+    "task, controller, params",
+    [
+        ("blocked", "clustered", {"lateral_jitter": 1.0}),
+        ("blocked", "dc", {"lateral_jitter": 1.0}),
+        ("crossing", "clustered", {}),  # the moving obstacle seen frozen: a static ridge
+    ],
+)
+def test_value_peaks_are_clusters_on_recorded_two_valley_steps(task, controller, params):
+    """Paper Fig. 2: each value peak lies in a cluster with its flanks, the ridge through the
+    obstacle in neither, the best sample is never a noise point, and the applied perturbation
+    lies among the samples of a peak's cluster."""
+    steps = 0
+    for d, peaks, ridges in recorded_two_valley_steps(task, controller, (0, 1), **params):
+        steps += 1
+        best = np.argmin(d.S)
+        assert d.labels[best] >= 0
+        labels = d.labels[peaks]
+        assert (labels >= 0).all() and len(set(labels)) == len(labels)
+        for ridge in ridges:
+            assert not np.isin(d.labels[ridge], labels).any()
+        assert d.chosen in labels
+        members = d.eps[d.labels == d.chosen, 0, 0]
+        applied = d.plan[0, 0] - d.warm_start[0, 0]
+        assert members.min() - 1e-12 <= applied <= members.max() + 1e-12
+        for ridge in ridges:  # not on the ridge between the peaks
+            assert not d.eps[ridge, 0, 0].min() < applied < d.eps[ridge, 0, 0].max()
+    assert steps >= 10  # the episodes did meet the two-valley case
 
 
 def test_noise_points_belong_to_no_cluster():
@@ -72,28 +180,30 @@ def test_constant_perturbation_updates_recompute_eps_exactly():
 
 def test_cluster_updates_check_shapes():
     eps, S, labels = np.zeros((4, 1, 6)), np.zeros(6), np.zeros(6, dtype=int)
-    for args in (
-        (np.zeros((3, 1)), eps, S, 1.0, labels),
-        (np.zeros((4, 1)), eps, S[:5], 1.0, labels),
-    ):
+    for U0, s in ((np.zeros((3, 1)), S), (np.zeros((4, 1)), S[:5])):
         with pytest.raises(ValueError, match="cluster_updates needs"):
-            cluster_updates(*args)
+            cluster_updates(U0, eps, s, 1.0, labels)
     with pytest.raises(ValueError, match="raw"):
         cluster_updates(np.zeros((4, 1)), eps, S, 1.0, labels, raw=np.zeros(5), bound=1.0)
 
 
-def blocked_step(name, **params):
-    """One step with a cylinder straight ahead between the robot and the goal."""
-    ctrl = dcmppi.make_controller(name, seed=0, **params)
-    state, goal = np.array([0.0, 0.0, 0.0]), np.array([15.0, 0.0])
-    static = np.array([[3.0, 0.0, 1.0]])
-    ctrl.act(state, goal, static)
-    return ctrl, ctrl.agent.rollout_one(state, ctrl.diagnostics.plan, ctrl.dt)
-
-
 def test_clustered_plan_avoids_blocking_cylinder():
-    ctrl, states = blocked_step("clustered")
+    ctrl = dcmppi.make_controller("clustered", seed=0)
+    state, goal = np.array([0.0, 0.0, 0.0]), np.array([15.0, 0.0])
+    ctrl.act(state, goal, np.array([[3.0, 0.0, 1.0]]))
+    states = ctrl.agent.rollout_one(state, ctrl.diagnostics.plan, ctrl.dt)
     d = ctrl.diagnostics
     assert d.labels.shape == (ctrl.K,) and d.chosen >= 0
     assert d.cluster_costs[d.chosen] == d.cluster_costs.min()
     assert np.hypot(states[:, 0] - 3.0, states[:, 1]).min() > 1.5
+
+
+def test_bad_cluster_parameters_are_named():
+    for params, word in (
+        ({"dbscan_eps": 0.0}, "dbscan_eps"),
+        ({"dbscan_min_samples": 1.5}, "dbscan_min_samples"),
+        ({"collision_gap": -1.0}, "collision_gap"),
+        ({"alpha": 0.0}, "cost_unit"),
+    ):
+        with pytest.raises(ValueError, match=word):
+            dcmppi.make_controller("clustered", **params)

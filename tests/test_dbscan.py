@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from sklearn.cluster import DBSCAN
 
-from dcmppi.control.clustered import COST_CLIP, DBSCAN_EPS, DBSCAN_MIN_SAMPLES, cluster_features
+from dcmppi.control.clustered import DBSCAN_MIN_SAMPLES, dbscan_radius
 from dcmppi.control.dbscan import dbscan
 
 
@@ -89,16 +89,30 @@ def test_duplicates_all_noise_and_one_cluster():
 
 @pytest.mark.parametrize("seed", range(4))
 def test_controller_features(seed):
-    """Features as Clustered MPPI builds them: eps_k / sigma and costs clipped at COST_CLIP."""
+    """Features as Clustered MPPI builds them: nu horizon-mean perturbations in std units (1 to
+    3 controls, samples stacked at a bound) and the cost with collision levels."""
     rng = np.random.default_rng(20 + seed)
     for _ in range(30):
-        K, sigma, lam = 500, rng.uniform(0.2, 1.0), rng.uniform(0.5, 5.0)
-        raw = rng.normal(0, sigma, K)
-        modes = rng.uniform(-2, 2, 3) * sigma
-        S = np.min((raw[:, None] - modes) ** 2, axis=1) * rng.uniform(10, 500)
-        S += 1e3 * (rng.random(K) < 0.2)  # collisions
-        X = cluster_features(raw[None, None, :], S, lam, [sigma], COST_CLIP, raw[None])
-        assert_like_sklearn(X, DBSCAN_EPS, DBSCAN_MIN_SAMPLES)
+        K, nu = 500, int(rng.integers(1, 4))
+        raw = rng.standard_normal((K, nu))
+        raw[rng.random(K) < 0.2, 0] = rng.uniform(1, 3)  # a stack of clipped samples
+        modes = rng.uniform(-2, 2, (3, nu))
+        S = np.min(((raw[:, None] - modes) ** 2).sum(-1), axis=1) * rng.uniform(10, 500)
+        S += 1e3 * rng.integers(0, 3, K) * (rng.random(K) < 0.3)  # collisions
+        radius = dbscan_radius(nu)
+        X = np.column_stack([raw, (S - S.min()) * 5 * radius / 1e3])
+        assert_like_sklearn(X, radius, DBSCAN_MIN_SAMPLES)
+
+
+@pytest.mark.parametrize("d", [3, 5, 8, 15])
+def test_more_features(d):
+    rng = np.random.default_rng(d)
+    for _ in range(20):
+        n = int(rng.integers(12, 300))
+        X = rng.standard_normal((n, d))
+        if rng.random() < 0.4:
+            X = np.round(X, 1)
+        assert_like_sklearn(X, rng.uniform(0.3, 3.0), int(rng.integers(1, 8)))
 
 
 def test_far_from_origin_and_sparse_points():

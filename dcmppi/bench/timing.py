@@ -5,10 +5,11 @@ Problems (deterministic, built here, SPEC defaults K = 500, N = 50):
   `clustered` and `tube` drive the analytic Dubins model across it.
 - forest+push (tube): the same, but after every step the real state is pushed along and across
   its heading and turned by a fixed seeded offset sequence (`push`, zero mean), so Tube-MPPI's
-  nominal state differs from the real one: every step rolls out both (2K rollouts), and when the
-  nominal is kept (about 2 steps in 3: pushed back, the real state costs more) the LQR feedback
-  runs too. Without the push the nominal equals the real state after every reset, so one batch
-  of K rollouts suffices and the feedback is zero.
+  nominal state differs from the real one: every step rolls out both (2K rollouts), and with
+  reset_threshold = 0 the nominal is kept whenever the push set the real state back (about 2
+  steps in 3) and the LQR feedback runs too: Tube-MPPI's most expensive step. Without the push
+  the nominal equals the real state after every reset, so one batch of K rollouts suffices and
+  the feedback is zero.
 - crowd: 100 moving cylinders drawn per SPEC section 4 (radius 1 m, speeds U(0.5, 1.5) m/s,
   turn rates U(-0.5, 0.5) rad/s, reflecting off the boundary); `dc` with P = 25 (and the others
   for reference).
@@ -108,6 +109,8 @@ class ClosedLoop:
     """One controller driving the analytic model on a timing problem, one timed step at a time."""
 
     def __init__(self, name, problem, steps, **params):
+        if problem == "forest+push":
+            params = {"reset_threshold": 0.0, **params}
         self.ctrl = make_controller(name, seed=0, **params)
         self.offsets = push(steps) if problem == "forest+push" else None
         if problem in ("forest", "forest+push"):

@@ -1,67 +1,89 @@
 """Clustered MPPI (paper Alg. 2): DBSCAN over the rollouts, Alg. 1 inside each cluster.
 
-Features (SPEC section 2), scaled so one DBSCAN radius works at every step:
-- perturbation: the sample's perturbation in units of its standard deviation. With constant
-  perturbations (the default) a sample has one degree of freedom, its scalar eps_k / sqrt(Sigma)
-  (before clipping; the clipped sequence is a monotone function of it). With time-varying ones,
-  the clipped sequence divided by sqrt(Sigma N), so distances are RMS values over the horizon.
-- cost: min((S_k - min S) / lambda, cost_clip). Samples whose weight exp(-(S - rho)/lambda) is
-  negligible all sit at the clip, so the high-cost ridge between good modes forms its own cluster
-  instead of bridging them.
-DBSCAN: radius dbscan_eps, min_samples dbscan_min_samples; noise points (label -1) belong to no
-cluster; with no cluster at all the step falls back to Alg. 1 over all samples. Each cluster's
-control sequence is rolled out without noise and the one with the least cost J is applied.
-Labels from dcmppi.control.dbscan: sklearn's labels, compiled with numba for two features
-(~50x faster), sklearn itself for the N + 1 features of time-varying perturbations. The
-per-cluster weights and updates are numba loops too (one pass over the clustered samples).
+The data point of sample k is d_k = [eps_k, S_k] (paper Sec. III-A), scaled so that one rule
+works at every step, for every agent and perturbation (SPEC section 2):
+- perturbation: for each control, the applied (projected) perturbation averaged over the
+  horizon, in units of that average's sampling std (constant: sqrt(Sigma); time-varying:
+  sqrt(Sigma / N); mixed: sqrt(Sigma (1 + 1 / N))). Before projection these are standard normal
+  in nu dimensions.
+- cost: (S_k - min S) in units of cost_unit / (collision_gap x radius), cost_unit = alpha by
+  default: a rollout with one more colliding state lies `collision_gap` DBSCAN radii away from an
+  otherwise equal one, while the goal-distance part of the cost varies smoothly. So a value peak
+  and its flanks (samples that pass the obstacle, farther and farther out) stay one cluster,
+  and the ridge of samples through an obstacle is cut off from both peaks (paper Fig. 2: "sharp
+  changes in the cost will cause a new cluster boundary").
+DBSCAN: radius dbscan_eps, by default the radius of the ball that holds 16 % of a standard
+normal in nu dimensions (0.202 for one control, 0.591 for two, 0.916 for three: the same share
+of the samples around the centre of the sampling distribution for every agent; the paper asks
+for clusters below 20 % of the samples); min_samples dbscan_min_samples. Noise points (label
+-1) belong to no cluster; with no cluster at all the step falls back to Alg. 1 over all samples.
+Each cluster's control sequence is rolled out without noise and the one with the least cost J
+is applied. Labels from dcmppi.control.dbscan (sklearn's labels, compiled with numba); the
+features, per-cluster weights and updates are numba loops (one pass over the samples).
 """
+
+import math
 
 import numba
 import numpy as np
+from scipy.stats import chi2
 
 from .controllers import _positive, register
 from .dbscan import dbscan
 from .mppi import MPPI, effective_sample_size, mppi_update
 
-DBSCAN_EPS = 0.2  # neighbourhood radius in feature units
+DBSCAN_SHARE = 0.16  # share of a standard normal inside the default DBSCAN radius
 DBSCAN_MIN_SAMPLES = 5  # neighbours (self included) of a core sample
-COST_CLIP = 10.0  # clip of (S - min S) / lambda
+COLLISION_GAP = 5.0  # DBSCAN radii between rollouts one colliding state apart
 
 
-def cluster_features(eps, S, lambda_, sigma, cost_clip=COST_CLIP, raw=None):
-    """DBSCAN features (K, nu + 1) or (K, N nu + 1).
+def dbscan_radius(controls):
+    """Default DBSCAN radius for `controls` perturbation features: the ball holding
+    DBSCAN_SHARE of a standard normal in that many dimensions."""
+    return math.sqrt(chi2.ppf(DBSCAN_SHARE, controls))
+
+
+def mean_std(sigma, perturbation, N):
+    """Sampling std (nu,) of a horizon-mean perturbation, for per-step stds sigma (nu,)."""
+    factor = {"constant": 1.0, "time_varying": 1.0 / N, "mixed": 1.0 + 1.0 / N}[perturbation]
+    return np.asarray(sigma, dtype=float) * math.sqrt(factor)
+
+
+def cluster_features(eps, S, scale, cost_scale):
+    """DBSCAN features (K, nu + 1): the horizon-mean perturbation of each control divided by
+    `scale` (nu,), and (S - min S) * cost_scale.
 
     Args:
-      eps: (N, nu, K) projected perturbations (time-major). S: (K,) costs.
-      sigma: (nu,) perturbation standard deviations. raw: (nu, K) constant perturbations, if any.
+      eps: (N, nu, K) applied perturbations (time-major). S: (K,) costs.
     """
     n, nu, k = eps.shape
-    sigma = np.asarray(sigma, dtype=float).reshape(-1)
-    if raw is not None:
-        if np.shape(raw) != (nu, len(S)):
-            raise ValueError(f"raw must be (nu, K) = ({nu}, {len(S)}); got {np.shape(raw)}")
-        if nu == 1:
-            return _constant_features(raw[0], S, sigma[0], lambda_, cost_clip).T
-        cost = np.minimum((S - S.min()) / lambda_, cost_clip)
-        return np.column_stack([(raw / sigma[:, None]).T, cost])
-    cost = np.minimum((S - S.min()) / lambda_, cost_clip)
-    scale = np.repeat(sigma[None, :] * np.sqrt(n), n, axis=0).reshape(-1)
-    return np.column_stack([np.reshape(eps, (n * nu, k)).T / scale, cost])
+    scale = np.asarray(scale, dtype=float).reshape(-1)
+    if scale.shape != (nu,) or np.shape(S) != (k,):
+        raise ValueError(
+            f"cluster_features needs scale (nu,) and S (K,) for eps (N, nu, K) = {eps.shape}; "
+            f"got {scale.shape}, {np.shape(S)}"
+        )
+    return _features(eps, S, 1.0 / (n * scale), float(cost_scale))
 
 
 @numba.njit(cache=True)
-def _constant_features(raw, S, sigma, lambda_, cost_clip):
-    """(2, K) rows raw / sigma and min((S - min S) / lambda, cost_clip) (contiguous rows: the
-    columns of the (K, 2) features that dbscan reads)."""
-    features = np.empty((2, len(S)))
+def _features(eps, S, inv, cost_scale):
+    """(K, nu + 1) features in one pass; inv (nu,) = 1 / (N scale)."""
+    n, nu, k = eps.shape
+    out = np.zeros((k, nu + 1))
+    for i in range(n):
+        for j in range(nu):
+            for m in range(k):
+                out[m, j] += eps[i, j, m]
     least = S.min()
-    for k in range(len(S)):
-        features[0, k] = raw[k] / sigma
-        features[1, k] = min((S[k] - least) / lambda_, cost_clip)
-    return features
+    for m in range(k):
+        for j in range(nu):
+            out[m, j] *= inv[j]
+        out[m, nu] = (S[m] - least) * cost_scale
+    return out
 
 
-def cluster_labels(features, dbscan_eps=DBSCAN_EPS, min_samples=DBSCAN_MIN_SAMPLES):
+def cluster_labels(features, dbscan_eps, min_samples=DBSCAN_MIN_SAMPLES):
     """DBSCAN labels (K,), -1 for noise, for (K, d) features."""
     return dbscan(features, dbscan_eps, min_samples)
 
@@ -146,38 +168,46 @@ def _cluster_sums(U0, eps, raw, bound, w, labels, M):
 class ClusteredMPPI(MPPI):
     """Clustered MPPI, paper Alg. 2.
 
-    Extra args: dbscan_eps, dbscan_min_samples, cost_clip (see the module docstring).
+    Extra args (see the module docstring): dbscan_eps (None: the default radius for the
+    agent's number of controls), dbscan_min_samples, collision_gap, cost_unit (None: alpha).
     """
 
-    own_params = ("dbscan_eps", "dbscan_min_samples", "cost_clip")
+    own_params = ("dbscan_eps", "dbscan_min_samples", "collision_gap", "cost_unit")
 
     def __init__(
         self,
         *,
-        dbscan_eps=DBSCAN_EPS,
+        dbscan_eps=None,
         dbscan_min_samples=DBSCAN_MIN_SAMPLES,
-        cost_clip=COST_CLIP,
+        collision_gap=COLLISION_GAP,
+        cost_unit=None,
         **params,
     ):
-        self.dbscan_eps = _positive("dbscan_eps", dbscan_eps)
-        self.dbscan_min_samples = _positive("dbscan_min_samples", dbscan_min_samples, integer=True)
-        self.cost_clip = _positive("cost_clip", cost_clip)
         super().__init__(**params)
+        self.dbscan_eps = (
+            dbscan_radius(self.nu) if dbscan_eps is None else _positive("dbscan_eps", dbscan_eps)
+        )
+        self.dbscan_min_samples = _positive("dbscan_min_samples", dbscan_min_samples, integer=True)
+        self.collision_gap = _positive("collision_gap", collision_gap)
+        if cost_unit is None and not self.alpha:
+            raise ValueError("cost_unit is needed when alpha = 0 (it defaults to alpha)")
+        self.cost_unit = self.alpha if cost_unit is None else _positive("cost_unit", cost_unit)
+        self._feature_scale = mean_std(self.sigma, self.perturbation, self.N)
+        self._cost_scale = self.collision_gap * self.dbscan_eps / self.cost_unit
 
     def _solve(self, state):
         eps, states, J, S = self.rollouts(state)
-        raw = self._raw
-        features = cluster_features(eps, S, self.lambda_, self.sigma, self.cost_clip, raw)
+        features = cluster_features(eps, S, self._feature_scale, self._cost_scale)
         labels = cluster_labels(features, self.dbscan_eps, self.dbscan_min_samples)
         self.record(eps, states, J, S)
         d = self.diagnostics
-        d.labels = labels
+        d.labels, d.features = labels, features
         if labels.max(initial=-1) < 0:  # no cluster: Alg. 1 over all samples
             plan, w = mppi_update(self.U, eps, S, self.lambda_)
             d.chosen, d.cluster_controls = -1, np.zeros((0, self.N, self.nu))
             d.cluster_costs = np.zeros(0)
         else:
-            agent = self.agent
+            agent, raw = self.agent, self._raw
             scalar = raw is not None and agent.nu == 1 and agent.lower[0] == -agent.upper[0]
             U, w = cluster_updates(
                 self.U, eps, S, self.lambda_, labels, raw[0] if scalar else None, agent.upper[0]

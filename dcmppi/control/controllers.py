@@ -81,11 +81,14 @@ class Diagnostics:
     J: (K,) costs; S: (K,) costs plus the importance term.
     weights: (K,) weights that produced the plan (zero outside the chosen cluster).
     ess: effective sample size 1 / sum(weights^2).
+    warm_start: (N, nu) the reference controls U0 the step started from (eps is relative to it).
     plan: (N, nu) the optimised control sequence; action: (nu,) the applied controls.
-    labels: (K,) DBSCAN labels (-1: noise), clustered/dc only.
+    labels: (K,) DBSCAN labels (-1: noise) and features: (K, nu + 1) the points DBSCAN
+      clustered, clustered/dc only.
     cluster_controls: (M, N, nu) and cluster_costs: (M,) per-cluster sequences and their J.
     chosen: index of the chosen cluster, -1 for the fallback to Alg. 1 over all samples.
-    nominal_state: (3,) and nominal_reset: bool, tube only.
+    nominal_state: (3,), nominal_reset: bool and nominal_deviation: the real-to-nominal
+      position distance at the start of the step, before any reset [m], tube only.
     obstacle_samples: (L', P, N + 1, 2) sampled futures of the obstacles within reach, dc only.
     """
 
@@ -95,14 +98,17 @@ class Diagnostics:
     S: np.ndarray = None
     weights: np.ndarray = None
     ess: float = float("nan")
+    warm_start: np.ndarray = None
     plan: np.ndarray = None
     action: np.ndarray = None
     labels: np.ndarray = None
+    features: np.ndarray = None
     cluster_controls: np.ndarray = None
     cluster_costs: np.ndarray = None
     chosen: int = -1
     nominal_state: np.ndarray = None
     nominal_reset: bool = None
+    nominal_deviation: float = float("nan")
     obstacle_samples: np.ndarray = None
 
 

@@ -1,11 +1,11 @@
-"""DBSCAN with scikit-learn's exact labels, compiled with numba for the 2-D points of one step.
+"""DBSCAN with scikit-learn's exact labels, compiled with numba for the points of one step.
 
 `sklearn.cluster.DBSCAN(eps, min_samples).fit(X).labels_` takes about 2.5 ms for K = 500 points
 (input validation, a tree, Python lists of neighbourhoods), more than a whole MPPI step. This
-module returns the same labels for two features (Clustered MPPI's) in a few tens of
+module returns the same labels for Clustered MPPI's few features (2 to 15) in a few tens of
 microseconds, following sklearn's conventions:
-- neighbours: points at squared Euclidean distance (x_0 - y_0)^2 + (x_1 - y_1)^2 <= eps^2
-  (float64, summed over the features in order, as sklearn's KD-tree tests them; self included);
+- neighbours: points at squared Euclidean distance sum_f (x_f - y_f)^2 <= eps^2 (float64, summed
+  over the features in order, as sklearn's KD-tree tests them; self included);
 - core points: at least `min_samples` neighbours;
 - labels: sklearn's `dbscan_inner` (sklearn/cluster/_dbscan_inner.pyx): points in index order,
   each unlabelled core point starts a new cluster that a depth-first search extends over its core
@@ -22,8 +22,7 @@ is not a normal float (or bad parameters, which sklearn names) go to sklearn.
 sklearn tests distances this way in its KD-tree, which its NearestNeighbors picks for at most
 15 features and n // 2 > 5 points (5: the default n_neighbors). Otherwise (brute force) it
 computes distances as |x|^2 - 2 x.y + |y|^2 with BLAS, which rounds differently at eps, so
-those inputs (tiny n), and other numbers of features (the N + 1 of time-varying perturbations),
-go to sklearn itself.
+those inputs (tiny n, or more than 15 features) go to sklearn itself.
 
 The kernels compile at the first call (a few seconds) and are cached on disk by numba
 (`cache=True`: __pycache__ next to this file, or NUMBA_CACHE_DIR), so later processes load them.
@@ -37,6 +36,7 @@ import numpy as np
 from sklearn.cluster import DBSCAN
 
 KD_TREE_MIN_SAMPLES = 12  # sklearn.neighbors: n // 2 <= 5 points use brute force
+KD_TREE_MAX_FEATURES = 15  # sklearn.neighbors: more features use brute force
 CELL_MARGIN = 1e-9  # cells a little wider than eps: rounding never puts a neighbour two away
 MAX_CELLS_PER_POINT = 4  # sparser points (far apart in x) go to sklearn, as do more cells than
 MAX_CELLS = 10**6  # (cell indices then round by less than 1e-9 of a cell, within the margin)
@@ -59,16 +59,15 @@ def dbscan(X, eps, min_samples):
     valid = isinstance(eps, numbers.Real) and isinstance(min_samples, numbers.Integral)
     eps2 = float(eps) * float(eps) if valid and eps > 0 and min_samples >= 1 else np.nan
     # eps^2 must be a normal number: a subnormal, 0 or inf square passes gaps beyond eps
-    if n < KD_TREE_MIN_SAMPLES or d != 2 or not _TINY <= eps2 < np.inf:
+    if n < KD_TREE_MIN_SAMPLES or d > KD_TREE_MAX_FEATURES or not _TINY <= eps2 < np.inf:
         return _sklearn(X, eps, min_samples)  # which also names bad parameters
-    X = np.asarray(X, dtype=np.float64)
-    x, y = X[:, 0], X[:, 1]
-    lo, span = _extent(x, y)
+    F = np.ascontiguousarray(np.asarray(X, dtype=np.float64).T)  # (d, n): one row per feature
+    lo, span = _extent(F)
     width = float(eps) * (1.0 + CELL_MARGIN)
     if not span / width <= min(MAX_CELLS_PER_POINT * n, MAX_CELLS):
         return _sklearn(X, eps, min_samples)  # non-finite values, or too sparse for cells
     # counts never exceed n, so any larger min_samples acts as n + 1 (and fits an int64)
-    return _dbscan(x, y, lo, 1.0 / width, eps2, int(min(min_samples, n + 1)))
+    return _dbscan(F, lo, 1.0 / width, eps2, int(min(min_samples, n + 1)))
 
 
 def _sklearn(X, eps, min_samples):
@@ -76,23 +75,27 @@ def _sklearn(X, eps, min_samples):
 
 
 @numba.njit(cache=True)
-def _extent(x, y):
-    """min x and max x - min x; the span is nan when any x or y is not finite."""
+def _extent(F):
+    """min and max - min of the first feature F[0]; the span is nan when any value of F is not
+    finite. F: (d, n)."""
+    x = F[0]
     lo, hi, finite = np.inf, -np.inf, 0.0
     for k in range(len(x)):
         lo, hi = min(lo, x[k]), max(hi, x[k])
-        finite += (x[k] - x[k]) + (y[k] - y[k])  # nan for inf or nan
+    for f in range(F.shape[0]):
+        for k in range(len(x)):
+            finite += F[f, k] - F[f, k]  # nan for inf or nan
     return lo, hi - lo + finite
 
 
 @numba.njit(cache=True)
-def _dbscan(x, y, lo, inv_width, eps2, min_samples):
-    """Labels (n,) by original index of the 2-D points (x, y), grouped in cells of x."""
-    order, start, end = _cells(x, lo, inv_width)
-    x, y = x[order], y[order]
-    core = _neighbour_counts(x, y, start, end, eps2) >= min_samples
-    root = _components(x, y, end, eps2, core)
-    return _labels(x, y, start, end, eps2, core, root, order)
+def _dbscan(F, lo, inv_width, eps2, min_samples):
+    """Labels (n,) by original index of the points F (d, n), grouped in cells of F[0]."""
+    order, start, end = _cells(F[0], lo, inv_width)
+    F = F[:, order]
+    core = _neighbour_counts(F, start, end, eps2) >= min_samples
+    root = _components(F, end, eps2, core)
+    return _labels(F, start, end, eps2, core, root, order)
 
 
 @numba.njit(cache=True)
@@ -126,29 +129,39 @@ def _cells(x, lo, inv_width):
     return order, start, end
 
 
-# The loops over windows below index slices from 0 (numba then knows the index is not negative
-# and vectorises the loop) and add or compare flags instead of branching on them: the pairs come
+# The loops over windows below add or compare flags instead of branching on them: the pairs come
 # in no predictable pattern, and mispredicted branches cost more than the arithmetic.
 
 
 @numba.njit(inline="always")
-def _near(xp, yp, x, y, i, eps2):
-    """(xp - x_i)^2 + (yp - y_i)^2 <= eps^2, summed in feature order as sklearn does."""
-    dx = xp - x[i]
-    dy = yp - y[i]
-    return dx * dx + dy * dy <= eps2
+def _distances(F, p, lo, hi, d2):
+    """d2[:hi - lo] = squared distances from the point at position p to those at lo .. hi - 1,
+    summed over the features in order as sklearn does (for two features the same operations as
+    dx * dx + dy * dy); one vectorised pass per feature. F: (d, n)."""
+    w = hi - lo
+    x, xp = F[0, lo:hi], F[0, p]
+    for i in range(w):
+        dx = x[i] - xp
+        d2[i] = dx * dx
+    for f in range(1, F.shape[0]):
+        x, xp = F[f, lo:hi], F[f, p]
+        for i in range(w):
+            dx = x[i] - xp
+            d2[i] += dx * dx
+    return d2[:w]
 
 
 @numba.njit(cache=True)
-def _neighbour_counts(x, y, start, end, eps2):
-    """(n,) neighbours of the point at every position, self included."""
-    n = len(x)
+def _neighbour_counts(F, start, end, eps2):
+    """(n,) neighbours of the point at every position, self included. F: (d, n)."""
+    n = F.shape[1]
     count = np.empty(n, dtype=np.intp)
+    d2 = np.empty(n)
     for p in range(n):
-        xw, yw = x[start[p] : end[p]], y[start[p] : end[p]]
+        dw = _distances(F, p, start[p], end[p], d2)
         c = 0
-        for i in range(len(xw)):
-            c += _near(x[p], y[p], xw, yw, i, eps2)
+        for i in range(len(dw)):
+            c += dw[i] <= eps2
         count[p] = c
     return count
 
@@ -163,7 +176,7 @@ def _find(parent, i):
 
 
 @numba.njit(cache=True)
-def _components(x, y, end, eps2, core):
+def _components(F, end, eps2, core):
     """(n,) root of the point at every position: connected components of the core points
     (neighbour pairs of two core points join; the lower root stays), other points are their own.
 
@@ -173,24 +186,26 @@ def _components(x, y, end, eps2, core):
     the same vectorised pass that counts the neighbours already joined to another node; only
     those (two trees meeting, rare) need a second pass with finds and unions.
     """
-    n = len(x)
+    n = F.shape[1]
     parent = np.arange(n)
+    d2 = np.empty(n)
     for p in range(n):
         if not core[p]:
             continue
         rp = _find(parent, p)
         lo = p + 1
-        xw, yw, cw, pw = x[lo : end[p]], y[lo : end[p]], core[lo : end[p]], parent[lo : end[p]]
+        dw = _distances(F, p, lo, end[p], d2)
+        cw, pw = core[lo : end[p]], parent[lo : end[p]]
         m = 0
-        for i in range(len(xw)):
-            join = _near(x[p], y[p], xw, yw, i, eps2) & cw[i]
+        for i in range(len(dw)):
+            join = (dw[i] <= eps2) & cw[i]
             single = pw[i] == lo + i
             m += join & (not single) & (pw[i] != rp)
             pw[i] = rp if join & single else pw[i]
         if m == 0:
             continue
-        for i in range(len(xw)):
-            if cw[i] and pw[i] != rp and _near(x[p], y[p], xw, yw, i, eps2):
+        for i in range(len(dw)):
+            if cw[i] and pw[i] != rp and dw[i] <= eps2:
                 rq = _find(parent, lo + i)
                 if rq < rp:
                     parent[rp] = rq
@@ -203,7 +218,7 @@ def _components(x, y, end, eps2, core):
 
 
 @numba.njit(cache=True)
-def _labels(x, y, start, end, eps2, core, root, order):
+def _labels(F, start, end, eps2, core, root, order):
     """sklearn's dbscan_inner labels from the components, without its depth-first search.
 
     dbscan_inner scans the points in original index order and labels a whole component (its core
@@ -212,7 +227,7 @@ def _labels(x, y, start, end, eps2, core, root, order):
     non-core point takes the lowest-numbered cluster among its core neighbours (the first that
     reached it), else -1. Returns labels by original index.
     """
-    n = len(x)
+    n = F.shape[1]
     # Flags select values instead of guarding branches (core and non-core points alternate
     # unpredictably); index n is a scratch entry.
     first = np.full(n + 1, n)  # per root: the lowest original index of its component's cores
@@ -236,10 +251,12 @@ def _labels(x, y, start, end, eps2, core, root, order):
     labels = np.empty(n, dtype=np.intp)
     for p in range(n):
         labels[order[p]] = label[p] if core[p] else -1
+    d2 = np.empty(n)
     for p in outside[:m]:  # the least label of its core neighbours
-        xw, yw, lw = x[start[p] : end[p]], y[start[p] : end[p]], label[start[p] : end[p]]
+        dw = _distances(F, p, start[p], end[p], d2)
+        lw = label[start[p] : end[p]]
         least = n
-        for i in range(len(xw)):
-            least = min(least, lw[i] if _near(x[p], y[p], xw, yw, i, eps2) else n)
+        for i in range(len(dw)):
+            least = min(least, lw[i] if dw[i] <= eps2 else n)
         labels[order[p]] = least if least < n else -1
     return labels

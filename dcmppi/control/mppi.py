@@ -48,6 +48,7 @@ class MPPI(Controller):
     def record(self, eps, states, J, S):
         d = self.diagnostics
         d.eps, d.states, d.J, d.S = eps.transpose(2, 0, 1), states.transpose(2, 0, 1), J, S
+        d.warm_start = self.U
 
     def _solve(self, state):
         eps, states, J, S = self.rollouts(state)

@@ -5,11 +5,21 @@ Each step solves MPPI twice with the same perturbations and warm start: from the
 and from the real state x (one batch of 2K rollouts). When the real solve's best cost is below the
 nominal's plus `reset_threshold`, the nominal state resets to the real one and the real solve's
 plan is used; otherwise the nominal plan is kept. A time-varying LQR along the nominal trajectory
-(the agent's exact step linearised, Riccati backward pass with weights Q = diag(q_pos, q_pos,
-q_theta), R = r_control I, Q_N = Q) gives the applied control u = project(u_nom_0 - K_0 (x - z))
-(heading error wrapped). The nominal state then moves exactly one control period with u_nom_0
-on the analytic model. A constant-speed car cannot correct an along-track error, so the nominal
-also resets whenever |x - z| (position) exceeds `max_deviation`.
+(the agent's exact step linearised, Riccati backward pass, Q_N = Q) gives the applied control
+u = project(u_nom_0 - K_0 (x - z)) (heading error wrapped). The nominal state then moves exactly
+one control period with u_nom_0 on the analytic model. A constant-speed car cannot correct an
+along-track error, so the nominal also resets whenever |x - z| (position) exceeds `max_deviation`.
+
+Units (one rule for every experiment and agent, never tuned on a table):
+- LQR weights by Bryson's rule, the inverse square of the largest acceptable value:
+  Q = diag(1 / e_pos^2, 1 / e_pos^2, 1 / e_theta^2) with e_pos = `tracking_position` = 0.1 m (one
+  cost-map cell: the plans pass obstacles a few centimetres outside the inflated map, so the real
+  robot must stay within about that of the nominal) and e_theta = `tracking_heading` = 0.2 rad;
+  R = diag(1 / u_max_j^2), u_max_j the bound of control j (the whole range may be used).
+- reset_threshold in the cost's units: alpha / 2 by default. The nominal is kept only when the
+  real state's best rollout is worse by half a colliding state or more (it foresees a collision
+  that the nominal does not); goal-distance differences from noise (0.1 m of progress is 5 cost
+  units over 51 states) never decide it.
 """
 
 import numpy as np
@@ -19,9 +29,9 @@ from .controllers import _positive, register
 from .dynamics import wrap_angle
 from .mppi import MPPI, effective_sample_size, mppi_update
 
-RESET_THRESHOLD = 5.0  # cost units (sum of N + 1 goal distances [m])
 MAX_DEVIATION = 1.0  # [m]
-Q_POS, Q_THETA, R_CONTROL = 1.0, 1.0, 1.0
+TRACKING_POSITION = 0.1  # [m] largest acceptable real-to-nominal position error (Bryson)
+TRACKING_HEADING = 0.2  # [rad] largest acceptable heading error (Bryson)
 
 
 def tvlqr_gains(A, B, Q, R, Qf):
@@ -85,29 +95,32 @@ def dubins_lqr_gain(c0, c1, b0, b1, b2, q_pos, q_theta, r):
 
 @register("tube")
 class TubeMPPI(MPPI):
-    """Tube-MPPI. Extra args: reset_threshold, max_deviation, q_pos, q_theta, r_control."""
+    """Tube-MPPI. Extra args (module docstring): reset_threshold (None: alpha / 2),
+    max_deviation, tracking_position, tracking_heading."""
 
-    own_params = ("reset_threshold", "max_deviation", "q_pos", "q_theta", "r_control")
+    own_params = ("reset_threshold", "max_deviation", "tracking_position", "tracking_heading")
 
     def __init__(
         self,
         *,
-        reset_threshold=RESET_THRESHOLD,
+        reset_threshold=None,
         max_deviation=MAX_DEVIATION,
-        q_pos=Q_POS,
-        q_theta=Q_THETA,
-        r_control=R_CONTROL,
+        tracking_position=TRACKING_POSITION,
+        tracking_heading=TRACKING_HEADING,
         **params,
     ):
-        t = float(reset_threshold)
-        if not np.isfinite(t):
-            raise ValueError(f"reset_threshold must be finite; got {reset_threshold!r}")
-        self.reset_threshold = t
-        self.max_deviation = _positive("max_deviation", max_deviation)
-        self.q_pos = _positive("q_pos", q_pos, allow_zero=True)
-        self.q_theta = _positive("q_theta", q_theta, allow_zero=True)
-        self.r_control = _positive("r_control", r_control)
         super().__init__(**params)
+        t = 0.5 * self.alpha if reset_threshold is None else reset_threshold
+        if isinstance(t, bool) or not isinstance(t, (int, float)) or not np.isfinite(t):
+            raise ValueError(f"reset_threshold must be a finite number; got {reset_threshold!r}")
+        self.reset_threshold = float(t)
+        self.max_deviation = _positive("max_deviation", max_deviation)
+        self.tracking_position = _positive("tracking_position", tracking_position)
+        self.tracking_heading = _positive("tracking_heading", tracking_heading)
+        q_pos, q_theta = tracking_position**-2, tracking_heading**-2
+        self._Q = np.diag([q_pos, q_pos, q_theta])
+        u_max = np.maximum(np.abs(self.agent.lower), np.abs(self.agent.upper))
+        self._R = np.diag(1.0 / np.maximum(u_max, 1e-12) ** 2)
 
     def reset(self, seed=None):
         super().reset(seed)
@@ -115,6 +128,7 @@ class TubeMPPI(MPPI):
 
     def _solve(self, state):
         z = state.copy() if self.nominal is None else self.nominal
+        deviation = float(np.hypot(*(state[:2] - z[:2])))  # tracking error of the last step
         u, eps = self.controls(self.U, self.sample())
         states, J, S, reset = self._two_solves(z, state, u, eps)
         if reset:
@@ -123,6 +137,7 @@ class TubeMPPI(MPPI):
         self.record(eps, states, J, S)
         d = self.diagnostics
         d.weights, d.ess, d.nominal_reset = w, effective_sample_size(w), bool(reset)
+        d.nominal_deviation = deviation
         feedback = self._feedback(z, state, plan)
         action = self.agent.project((plan[0] - feedback)[:, None], axis=0)[:, 0]
         d.nominal_state = z
@@ -167,11 +182,9 @@ class TubeMPPI(MPPI):
             omega = plan[:, 0]
             theta = np.cumsum(np.concatenate([[wrap_angle(z[2])], omega * self.dt]))
             c0, c1, b0, b1 = jacobian_terms(theta, omega, self.agent.v, self.dt)
-            gain = dubins_lqr_gain(
-                c0, c1, b0, b1, self.dt, self.q_pos, self.q_theta, self.r_control
-            )
+            q_pos, q_theta, r = self._Q[0, 0], self._Q[2, 2], self._R[0, 0]
+            gain = dubins_lqr_gain(c0, c1, b0, b1, self.dt, q_pos, q_theta, r)
             return np.array([gain @ error])
         nominal = self.agent.rollout_one(z, plan, self.dt)
         A, B = self.agent.jacobians(nominal, plan, self.dt)
-        Q = np.diag([self.q_pos, self.q_pos, self.q_theta])
-        return tvlqr_gains(A, B, Q, self.r_control * np.eye(self.nu), Q)[0] @ error
+        return tvlqr_gains(A, B, self._Q, self._R, self._Q)[0] @ error

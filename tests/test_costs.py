@@ -90,3 +90,39 @@ def test_mismatched_steps_raise():
         grid.count(np.zeros((5, 3)), np.zeros((4, 3)))
     with pytest.raises(ValueError, match="alike"):
         goal_distance(np.zeros((5, 3)), np.zeros((5, 2)), np.zeros(2))
+
+
+def test_map_bounds_make_everything_beyond_them_occupied():
+    bounds = np.array([0.0, 0.0, 10.0, 8.0])
+    grid = OccupancyGrid(np.array([[5.0, 5.0, 1.0]]), 0.5, bounds=bounds)
+    rng = np.random.default_rng(0)
+    x, y = rng.uniform(-5, 15, 20000), rng.uniform(-5, 13, 20000)
+    outside = (x < 0) | (x > 10) | (y < 0) | (y > 8)
+    assert grid.lookup(x, y)[outside].all()  # the robot's centre never leaves unnoticed
+    inner = (x > 0.1) & (x < 9.9) & (y > 0.1) & (y < 7.9) & (np.hypot(x - 5, y - 5) > 1.65)
+    assert not grid.lookup(x, y)[inner].any()  # at most one cell of the map is lost per edge
+    empty = OccupancyGrid(None, 0.5, bounds=bounds)
+    assert not empty.empty and empty.lookup(11.0, 4.0) and not empty.lookup(5.0, 4.0)
+    assert grid.matches(np.array([[5.0, 5.0, 1.0]]), bounds)
+    assert not grid.matches(np.array([[5.0, 5.0, 1.0]]), None)
+    for bad in ([0, 0, 10], [0, 0, -1, 5], [0, np.nan, 1, 1]):
+        with pytest.raises(ValueError, match="bounds"):
+            OccupancyGrid(None, 0.5, bounds=bad)
+
+
+def test_planner_keeps_the_robot_on_the_map():
+    """The car 2 m from the map's edge, heading out, the goal behind it: with the bounds it turns
+    back before the edge (its turning radius is 1 m); without them it drives out first."""
+    import dcmppi
+
+    state, goal = np.array([5.0, 6.0, np.pi / 2]), np.array([5.0, 4.0])
+    bounds = np.array([0.0, 0.0, 20.0, 8.0])
+    for with_bounds in (True, False):
+        ctrl = dcmppi.make_controller("clustered", seed=0)
+        s = state.copy()
+        highest = s[1]
+        for _ in range(80):
+            u = ctrl.act(s, goal, None, None, None, bounds if with_bounds else None)
+            s = ctrl.agent.step(s, u, ctrl.dt)
+            highest = max(highest, s[1])
+        assert (highest <= 8.0) == with_bounds

@@ -77,6 +77,7 @@ def act(controller, observation) -> np.ndarray:
         observation["static_obstacles"],
         observation["moving_obstacles"],
         observation["obstacle_model"],
+        observation["map_bounds"],
     )
     return np.asarray(u, dtype=np.float64).reshape(-1)
 

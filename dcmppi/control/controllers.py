@@ -237,7 +237,7 @@ class Controller:
 
     # --- one control step -------------------------------------------------------------------
 
-    def act(self, state, goal, static=None, moving=None, obstacle_model=None):
+    def act(self, state, goal, static=None, moving=None, obstacle_model=None, bounds=None):
         """Controls to apply now.
 
         Args:
@@ -245,6 +245,8 @@ class Controller:
           static: (M, 3) x, y, radius of static cylinders (radius-0 rows ignored), or None.
           moving: (L, 4) x, y, heading, radius of moving cylinders now, or None.
           obstacle_model: (4,) v_mean, v_std, omega_mean, omega_std of the moving obstacles.
+          bounds: (4,) xmin, ymin, xmax, ymax of the map, or None: with bounds a state whose
+            centre leaves the map costs alpha, as a collision with the static map does.
         Returns:
           (nu,) controls within the agent's bounds (dubins: the turn rate omega).
         """
@@ -257,8 +259,8 @@ class Controller:
                 f"state and goal must be finite and within {MAX_COORDINATE:.0e} (m, rad); "
                 f"got {state}, {goal}"
             )
-        if self._grid is None or not self._grid.matches(static):
-            self._grid = OccupancyGrid(static, self.robot_radius, self.resolution)
+        if self._grid is None or not self._grid.matches(static, bounds):
+            self._grid = OccupancyGrid(static, self.robot_radius, self.resolution, bounds)
         self._goal = goal
         if self.U is None:
             self.U = self.agent.project(self.agent.first_guess(state, goal, self.N), axis=1)

@@ -42,30 +42,34 @@ class OccupancyGrid:
     A cell is occupied when its square meets any inflated disc, so a point inside a disc always
     lands in an occupied cell (the map never misses a collision); a point at most one cell
     diagonal (resolution * sqrt(2) = 0.14 m at 0.1 m) outside a disc may also count as one.
-    Outside the grid everything is free: lookups clip indices to the grid's outer ring of cells,
-    which stays free (a two-cell border; rasterising never writes the outer ring, where rounding
-    could otherwise put the cell that only touches a disc and make a wall to infinity).
+    Without map bounds everything outside the grid is free: lookups clip indices to the grid's
+    outer ring of cells, which stays free (a two-cell border; rasterising never writes the outer
+    ring, where rounding could otherwise put the cell that only touches a disc and make a wall to
+    infinity). With map bounds the robot's centre must stay on the map: every cell that reaches
+    beyond the bounds is occupied, the outer ring and so everything outside the grid too.
 
     Args:
       static: (M, 3) x, y, radius of the cylinders; rows with radius 0 are ignored.
       inflation: robot radius added to every cylinder radius [m].
       resolution: cell size [m].
+      bounds: (4,) xmin, ymin, xmax, ymax of the map, or None for an unbounded plane.
     """
 
-    def __init__(self, static, inflation, resolution=RESOLUTION):
+    def __init__(self, static, inflation, resolution=RESOLUTION, bounds=None):
         if not resolution > 0:
             raise ValueError(f"resolution must be > 0 m; got {resolution}")
         self.source = None if static is None else np.array(static, dtype=float)
+        self.bounds = _check_bounds(bounds)
         cyl = valid_cylinders(static, "static")
         self.resolution = float(resolution)
         self.inflation = float(inflation)
-        self.empty = len(cyl) == 0
+        self.empty = len(cyl) == 0 and self.bounds is None
         radius = cyl[:, 2] + inflation
-        if self.empty:
-            lo, hi = np.zeros(2), np.zeros(2)
-        else:
-            lo = (cyl[:, :2] - radius[:, None]).min(axis=0)
-            hi = (cyl[:, :2] + radius[:, None]).max(axis=0)
+        extent = [] if self.bounds is None else [self.bounds[:2], self.bounds[2:]]
+        if len(cyl):
+            extent += [cyl[:, :2] - radius[:, None], cyl[:, :2] + radius[:, None]]
+        extent = np.vstack(extent) if extent else np.zeros((1, 2))
+        lo, hi = extent.min(axis=0), extent.max(axis=0)
         shape = np.floor((hi - lo) / resolution).astype(int) + 1
         if np.prod(shape.astype(float)) > MAX_CELLS:
             raise ValueError(
@@ -87,12 +91,24 @@ class OccupancyGrid:
             nx = np.clip(cx, xs, xs + resolution) - cx  # nearest point of each cell column
             ny = np.clip(cy, ys, ys + resolution) - cy
             grid[i0 : i1 + 1, j0 : j1 + 1] |= nx[:, None] ** 2 + ny[None, :] ** 2 <= r * r
+        if self.bounds is not None:  # cells reaching beyond the map, the outer ring included
+            tol = 1e-9 * resolution  # an edge on a bound up to rounding stays inside
+            for axis in (0, 1):
+                edges = self.origin[axis] + np.arange(self.shape[axis] + 1) * resolution
+                out = (edges[:-1] < self.bounds[axis] - tol) | (
+                    edges[1:] > self.bounds[axis + 2] + tol
+                )
+                grid[(slice(None), out) if axis else out] = True
         self.grid = grid
         limit = np.array(self.shape, dtype=float) - 1.0  # last cell index along x and y
         self._cells = (grid.ravel(), self.shape[1], self.origin, limit, 1.0 / resolution)
 
-    def matches(self, static):
-        """True when `static` is the array this grid was built from (cheap equality)."""
+    def matches(self, static, bounds=None):
+        """True when `static` and `bounds` are those this grid was built from (cheap equality)."""
+        if (bounds is None) != (self.bounds is None) or (
+            bounds is not None and not np.array_equal(bounds, self.bounds)
+        ):
+            return False
         if static is None or self.source is None:
             return static is None and self.source is None
         return np.shape(static) == self.source.shape and np.array_equal(static, self.source)
@@ -106,6 +122,18 @@ class OccupancyGrid:
         """Occupied states of every rollout. x, y: (N + 1, R) coordinates [m]. Returns (R,) int."""
         _check_steps(x, y)
         return _occupied_steps(*self._cells, x, y)
+
+
+def _check_bounds(bounds):
+    """Map bounds as a (4,) array xmin, ymin, xmax, ymax with min < max, or None."""
+    if bounds is None:
+        return None
+    b = np.array(bounds, dtype=float).reshape(-1)
+    if b.shape != (4,) or not np.isfinite(b).all() or not (b[:2] < b[2:]).all():
+        raise ValueError(
+            f"bounds must be 4 finite numbers xmin, ymin, xmax, ymax with min < max; got {bounds}"
+        )
+    return b
 
 
 @numba.njit(inline="always")

@@ -325,10 +325,11 @@ class Navigation(base.Task):
     Reward: 1 on the step that reaches the goal, else 0. Discount: 0 at the goal, on a collision
     and on leaving the map (terminal); 1 at the time limit (truncation).
     Noise (drawn from the task's random): "control" adds N(0, Sigma) to each applied control
-    every control step (Sigma per control, in its own units; default: the agent's sampling
-    variances); "process" adds that, plus velocity disturbances (std process_velocity_std per
-    planar axis, process_yaw_rate_std for the yaw rate) held for the control step as forces
-    that the actuators have to fight.
+    every control step (Sigma per control, in its own units; default 0.1 for every control, the
+    paper's turn-rate variance: a holonomic robot's velocity errs by 0.32 m/s std, a tenth of
+    the variance its planners sample with); "process" adds that, plus velocity disturbances
+    (std process_velocity_std per planar axis, process_yaw_rate_std for the yaw rate) held for
+    the control step as forces that the actuators have to fight.
     """
 
     default_agent = "dubins"
@@ -351,6 +352,8 @@ class Navigation(base.Task):
         self.agent = make_agent(self.default_agent if agent is None else agent, **agent_params)
         self.plant = robots.plant(self.agent)
         self.robot_radius = check_positive("robot_radius", robot_radius)
+        if Sigma is None:
+            Sigma = [defaults.CONTROL_NOISE] * self.agent.nu
         self.Sigma = self.agent.variances(Sigma, allow_zero=True)
         self.process_std = np.array(
             [

@@ -21,6 +21,7 @@ TIME_LIMIT_FACTOR = 3.0  # time limit = 3 x map perimeter / v (paper)
 
 # Noise profiles of the experiments (SPEC section 4).
 NOISE_PROFILES = ("none", "control", "process")
+CONTROL_NOISE = 0.1  # variance of the control noise on every control, in its own units (paper)
 
 # Maps (SPEC section 4).
 MAP_SIZE = (75.0, 50.0)  # [m], x in [0, 75], y in [0, 50]

@@ -57,7 +57,7 @@ def test_features_are_horizon_means_in_std_units_and_scaled_costs():
     sigma = np.array([1.0, 0.3])
     np.testing.assert_allclose(mean_std(sigma, "constant", 50), sigma)
     np.testing.assert_allclose(mean_std(sigma, "time_varying", 50), sigma / np.sqrt(50))
-    np.testing.assert_allclose(mean_std(sigma, "mixed", 50), sigma * np.sqrt(1.02))
+    np.testing.assert_allclose(mean_std(sigma, "mixed", 50), sigma * np.sqrt(0.51))
 
 
 @pytest.mark.parametrize("perturbation", ["constant", "time_varying", "mixed"])

@@ -188,3 +188,17 @@ def test_agent_instance_and_margin():
         ctrl.act(state, goal, None, moving)
         hits.append((ctrl.diagnostics.J >= ctrl.alpha).sum())
     assert hits[1] > hits[0]
+
+
+@pytest.mark.parametrize("perturbation", PERTURBATIONS)
+def test_every_perturbation_kind_has_the_per_step_variance_sigma(perturbation):
+    """The importance term assumes eps_i ~ N(0, Sigma) at every step: constant, time-varying and
+    mixed (half of the variance constant, half per step) samples all have it."""
+    ctrl = dcmppi.make_controller(
+        "mppi", agent="holonomic", seed=0, K=20000, N=10, perturbation=perturbation
+    )
+    eps = ctrl.sample()  # (N, 3, K)
+    np.testing.assert_allclose(eps.var(axis=2), np.broadcast_to(ctrl.Sigma, (10, 3)), rtol=0.05)
+    lag = (eps[0] * eps[5]).mean(axis=1) / ctrl.Sigma  # correlation between two steps
+    expected = {"constant": 1.0, "time_varying": 0.0, "mixed": 0.5}[perturbation]
+    np.testing.assert_allclose(lag, expected, atol=0.03)

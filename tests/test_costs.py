@@ -126,3 +126,40 @@ def test_planner_keeps_the_robot_on_the_map():
             s = ctrl.agent.step(s, u, ctrl.dt)
             highest = max(highest, s[1])
         assert (highest <= 8.0) == with_bounds
+
+
+def _brute_counts(x, y, tracks, distance):
+    counts = np.zeros(x.shape[1], dtype=np.intp)
+    for i in range(x.shape[0]):
+        dx = x[i, :, None] - tracks[:, i, 0]
+        dy = y[i, :, None] - tracks[:, i, 1]
+        counts += np.count_nonzero(dx * dx + dy * dy <= distance * distance, axis=1)
+    return counts
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_track_index_counts_equal_all_pairs(seed):
+    """Cells as wide as the largest distance lose no pair: equal counts to testing every state
+    against every track, ties at the distance and states far outside the cells included."""
+    from dcmppi.control.costs import TrackIndex
+
+    rng = np.random.default_rng(seed)
+    for _ in range(100):
+        n, R, T = rng.integers(1, 30), rng.integers(1, 200), rng.integers(0, 60)
+        x = np.cumsum(rng.normal(0, 0.3, (n, R)), 0) + rng.uniform(-5, 5)
+        y = np.cumsum(rng.normal(0, 0.3, (n, R)), 0)
+        tracks = np.cumsum(rng.normal(0, 0.3, (T, n, 2)), 1) + rng.uniform(-4, 4, (T, 1, 2))
+        if rng.random() < 0.3:
+            tracks, x, y = np.round(tracks, 1), np.round(x, 1), np.round(y, 1)
+        distance = rng.choice([1.5, 1.0, 0.5, 0.0], T)
+        if T and rng.random() < 0.3:  # ties: distances equal to some state-track distances
+            distance = np.hypot(x[0, 0] - tracks[:, 0, 0], y[0, 0] - tracks[:, 0, 1])
+        index = TrackIndex(tracks, distance)
+        np.testing.assert_array_equal(index.count(x, y), _brute_counts(x, y, tracks, distance))
+        np.testing.assert_array_equal(
+            index.count(x[:, :3], y[:, :3]), _brute_counts(x[:, :3], y[:, :3], tracks, distance)
+        )
+    with pytest.raises(ValueError, match="tracks"):
+        TrackIndex(np.zeros((3, 5)), np.zeros(3))
+    with pytest.raises(ValueError, match="steps"):
+        TrackIndex(np.zeros((2, 5, 2)), np.ones(2)).count(np.zeros((4, 3)), np.zeros((4, 3)))

@@ -3,7 +3,7 @@
 import numpy as np
 
 import dcmppi
-from dcmppi.control.costs import collision_counts
+from dcmppi.control.costs import TrackIndex, collision_counts
 from dcmppi.control.dynamics import rollout_time_major
 
 MODEL = np.array([1.0, 0.05, 0.0, 0.02])  # v_mean, v_std, omega_mean, omega_std
@@ -17,8 +17,10 @@ def straight_cost(moving, seed=0, **params):
     ctrl._goal = goal
     ctrl._grid = dcmppi.control.costs.OccupancyGrid(None, ctrl.robot_radius)
     ctrl._prepare_obstacles(state, dcmppi.control.costs.valid_cylinders(moving, "m", 4), MODEL)
+    ctrl._track_index = TrackIndex(ctrl._tracks, ctrl._track_distance)
     _, J = ctrl.evaluate(state, np.zeros((ctrl.N, 1, 1)))
     ctrl._prepare_obstacles(state, np.zeros((0, 4)), MODEL)
+    ctrl._track_index = TrackIndex(ctrl._tracks, ctrl._track_distance)
     _, J0 = ctrl.evaluate(state, np.zeros((ctrl.N, 1, 1)))
     return J[0], J0[0], ctrl
 

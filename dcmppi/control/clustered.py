@@ -4,7 +4,7 @@ The data point of sample k is d_k = [eps_k, S_k] (paper Sec. III-A), scaled so t
 works at every step, for every agent and perturbation (SPEC section 2):
 - perturbation: for each control, the applied (projected) perturbation averaged over the
   horizon, in units of that average's sampling std (constant: sqrt(Sigma); time-varying:
-  sqrt(Sigma / N); mixed: sqrt(Sigma (1 + 1 / N))). Before projection these are standard normal
+  sqrt(Sigma / N); mixed: sqrt(Sigma (1 + 1 / N) / 2)). Before projection these are standard normal
   in nu dimensions.
 - cost: (S_k - min S) in units of cost_unit / (collision_gap x radius), cost_unit = alpha by
   default: a rollout with one more colliding state lies `collision_gap` DBSCAN radii away from an
@@ -45,7 +45,9 @@ def dbscan_radius(controls):
 
 def mean_std(sigma, perturbation, N):
     """Sampling std (nu,) of a horizon-mean perturbation, for per-step stds sigma (nu,)."""
-    factor = {"constant": 1.0, "time_varying": 1.0 / N, "mixed": 1.0 + 1.0 / N}[perturbation]
+    factor = {"constant": 1.0, "time_varying": 1.0 / N, "mixed": 0.5 * (1.0 + 1.0 / N)}[
+        perturbation
+    ]
     return np.asarray(sigma, dtype=float) * math.sqrt(factor)
 
 

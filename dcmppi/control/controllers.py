@@ -19,7 +19,7 @@ import numpy as np
 from . import defaults
 from ._malloc import tune_malloc
 from .agents import Agent, agent_class, make_agent
-from .costs import RESOLUTION, OccupancyGrid, collision_counts, goal_distance, valid_cylinders
+from .costs import RESOLUTION, OccupancyGrid, TrackIndex, goal_distance, valid_cylinders
 
 PERTURBATIONS = ("constant", "time_varying", "mixed")
 MAX_COORDINATE = 1e6  # |state| and |goal| bound: far beyond, squared distances overflow
@@ -138,7 +138,7 @@ class Controller:
         moving obstacle (dc). seed: int, None or np.random.Generator.
       perturbation: "constant" (one eps per sample over the horizon, paper Sec. IV-A),
         "time_varying" (independent per step) or "mixed" (the sum of one constant and one
-        time-varying draw, each N(0, Sigma)); default: the agent's.
+        time-varying draw, each N(0, Sigma / 2)); default: the agent's.
       resolution: cost-map cell size [m].
       obstacle_margin: added to every moving obstacle's radius in the cost [m].
     """
@@ -266,6 +266,7 @@ class Controller:
             self.U = self.agent.project(self.agent.first_guess(state, goal, self.N), axis=1)
         moving = valid_cylinders(moving, "moving", columns=4)
         self._prepare_obstacles(state, moving, obstacle_model)
+        self._track_index = TrackIndex(self._tracks, self._track_distance)
         u = self._solve(state)
         self.diagnostics.action = u
         return u
@@ -289,7 +290,9 @@ class Controller:
         """Perturbations eps (N, nu, K) drawn from N(0, Sigma), time-major.
 
         constant: one draw per sample and control (kept in self._raw (nu, K)), the same at
-        every step; time_varying: independent draws per step; mixed: their sum.
+        every step; time_varying: independent draws per step; mixed: the sum of one of each,
+        both N(0, Sigma / 2), so that every kind has the per-step variance Sigma that the
+        importance term assumes.
         """
         shape = (self.N, self.nu, self.K)
         self._raw = None
@@ -299,7 +302,8 @@ class Controller:
         if self.perturbation == "constant":
             self._raw = raw
             return np.broadcast_to(raw, shape)
-        return raw + self.rng.standard_normal(shape) * self.sigma[:, None]
+        half = np.sqrt(0.5)  # each draw N(0, Sigma / 2): the sum has variance Sigma at every step
+        return half * raw + self.rng.standard_normal(shape) * (half * self.sigma[:, None])
 
     def controls(self, U0, eps):
         """Bounded controls project(U0 + eps) (N, nu, K) and the perturbations that remain.
@@ -322,8 +326,8 @@ class Controller:
         J = goal_distance(x, y, self._goal)
         if not self._grid.empty and self.alpha:
             J += self.alpha * self._grid.count(x, y)
-        if len(self._tracks):
-            J += self._track_weight * collision_counts(x, y, self._tracks, self._track_distance)
+        if not self._track_index.empty:
+            J += self._track_weight * self._track_index.count(x, y)
         return states, J
 
     def importance(self, U0, eps):

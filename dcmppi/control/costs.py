@@ -196,10 +196,7 @@ def _goal_distance(x, y, gx, gy):
 def collision_counts(x, y, tracks, distance):
     """Number of (step, obstacle track) pairs in collision for every rollout.
 
-    A step i collides with track j when |p_i - o_j(t_i)| <= distance_j. Tracks are any set of
-    obstacle futures (DC-MPPI's P samples of each relevant obstacle) or of frozen positions; the
-    loop runs over the N + 1 steps only, with a vectorised test of all rollouts against the
-    tracks that can reach that step's rollout bounding box (no loop over K x P x L).
+    A step i collides with track j when |p_i - o_j(t_i)| <= distance_j (see TrackIndex).
 
     Args:
       x, y: (N + 1, R) rollout positions.
@@ -208,24 +205,113 @@ def collision_counts(x, y, tracks, distance):
     Returns:
       (R,) int counts.
     """
-    counts = np.zeros(x.shape[1], dtype=np.intp)
-    if len(tracks) == 0:
-        return counts
-    d = distance[:, None]
-    ox, oy = tracks[..., 0], tracks[..., 1]  # (T, N + 1)
-    near = (
-        (ox >= x.min(axis=1) - d)
-        & (ox <= x.max(axis=1) + d)
-        & (oy >= y.min(axis=1) - d)
-        & (oy <= y.max(axis=1) + d)
-    )
-    d2 = distance * distance
-    for i in np.flatnonzero(near.any(axis=0)):
-        sel = near[:, i]
-        dx = x[i, :, None] - ox[sel, i]
-        dy = y[i, :, None] - oy[sel, i]
-        dx *= dx
-        dy *= dy
-        dx += dy
-        counts += np.count_nonzero(dx <= d2[sel], axis=1)
+    return TrackIndex(tracks, distance).count(x, y)
+
+
+class TrackIndex:
+    """Obstacle tracks sorted into cells at every step, for collision counts of many rollouts.
+
+    Tracks are any set of obstacle futures (DC-MPPI's P samples of each relevant obstacle) or of
+    frozen positions; a rollout state at step i collides with track j when |p_i - o_j(t_i)| <=
+    distance_j. Each step's track positions are sorted into square cells as wide as the largest
+    distance, so a state meets only the tracks of its own and the 8 surrounding cells: no loop
+    over K x P x L pairs, and the cost stays additive in P and K. Built once per control step,
+    it serves the sampled rollouts and the cluster controls alike.
+
+    Args:
+      tracks: (T, N + 1, 2) obstacle positions per step; distance: (T,) collision distances.
+    """
+
+    def __init__(self, tracks, distance):
+        tracks = np.asarray(tracks, dtype=float)
+        distance = np.asarray(distance, dtype=float)
+        if tracks.ndim != 3 or tracks.shape[2] != 2 or distance.shape != tracks.shape[:1]:
+            raise ValueError(
+                f"tracks must be (T, N + 1, 2) and distance (T,); got {tracks.shape} and "
+                f"{distance.shape}"
+            )
+        self.steps = tracks.shape[1]
+        self.empty = len(tracks) == 0
+        if self.empty:
+            return
+        width = float(distance.max()) * (1.0 + 1e-9)  # rounding never puts a hit two cells away
+        width = width if width > 0 else 1.0
+        step_major = np.ascontiguousarray(tracks.transpose(1, 2, 0))  # (N + 1, 2, T)
+        self._index = (
+            step_major,
+            distance * distance,
+            1.0 / width,
+            *_sort_tracks(step_major, 1.0 / width),
+        )
+
+    def count(self, x, y):
+        """Collisions (R,) int of rollouts x, y (N + 1, R) with the tracks, summed over steps."""
+        _check_steps(x, y)
+        if x.shape[0] != self.steps:
+            raise ValueError(f"rollouts have {x.shape[0]} steps, the tracks {self.steps}")
+        if self.empty:
+            return np.zeros(x.shape[1], dtype=np.intp)
+        return _count_hits(x, y, *self._index)
+
+
+@numba.njit(cache=True)
+def _sort_tracks(tracks, inv):
+    """Counting sort of every step's track positions into cells of width 1 / inv.
+
+    tracks: (N + 1, 2, T). Returns the cells' lower corner (N + 1, 2), their counts along x and
+    y (N + 1, 2), each step's offset into `start` (N + 2,), start: per cell the first position
+    of its tracks in `order` (cells of a step plus one end entry, steps concatenated), and
+    order (N + 1, T): the track indices by cell."""
+    steps, T = tracks.shape[0], tracks.shape[2]
+    corner = np.empty((steps, 2))
+    shape = np.empty((steps, 2), dtype=np.intp)
+    offset = np.zeros(steps + 1, dtype=np.intp)
+    for i in range(steps):
+        corner[i, 0], corner[i, 1] = tracks[i, 0].min(), tracks[i, 1].min()
+        shape[i, 0] = int((tracks[i, 0].max() - corner[i, 0]) * inv) + 1
+        shape[i, 1] = int((tracks[i, 1].max() - corner[i, 1]) * inv) + 1
+        offset[i + 1] = offset[i] + shape[i, 0] * shape[i, 1] + 1
+    start = np.zeros(offset[steps], dtype=np.intp)
+    order = np.empty((steps, T), dtype=np.intp)
+    cell = np.empty(T, dtype=np.intp)
+    for i in range(steps):
+        s = start[offset[i] : offset[i + 1]]
+        ny = shape[i, 1]
+        for t in range(T):
+            cell[t] = int((tracks[i, 0, t] - corner[i, 0]) * inv) * ny + int(
+                (tracks[i, 1, t] - corner[i, 1]) * inv
+            )
+            s[cell[t] + 1] += 1
+        for c in range(len(s) - 1):
+            s[c + 1] += s[c]
+        slot = s[:-1].copy()
+        for t in range(T):
+            order[i, slot[cell[t]]] = t
+            slot[cell[t]] += 1
+    return corner, shape, offset, start, order
+
+
+@numba.njit(cache=True)
+def _count_hits(x, y, tracks, d2, inv, corner, shape, offset, start, order):
+    """(R,) hits of the states x, y (N + 1, R) with the sorted tracks (see _sort_tracks)."""
+    steps, R = x.shape
+    counts = np.zeros(R, dtype=np.intp)
+    for i in range(steps):
+        ox, oy, nx, ny = tracks[i, 0], tracks[i, 1], shape[i, 0], shape[i, 1]
+        s, o = start[offset[i] : offset[i + 1]], order[i]
+        for k in range(R):
+            px, py = x[i, k], y[i, k]
+            fx, fy = (px - corner[i, 0]) * inv, (py - corner[i, 1]) * inv
+            if not (-1.0 <= fx < nx + 1.0 and -1.0 <= fy < ny + 1.0):
+                continue  # no cell within one of the state's
+            cx, cy = int(np.floor(fx)), int(np.floor(fy))
+            hits = 0
+            for gx in range(max(cx - 1, 0), min(cx + 2, nx)):
+                for c in range(gx * ny + max(cy - 1, 0), gx * ny + min(cy + 2, ny)):
+                    for j in range(s[c], s[c + 1]):
+                        t = o[j]
+                        dx = px - ox[t]
+                        dy = py - oy[t]
+                        hits += dx * dx + dy * dy <= d2[t]
+            counts[k] += hits
     return counts

@@ -40,7 +40,7 @@ class DCMPPI(ClusteredMPPI):
 
     def _prepare_obstacles(self, state, moving, obstacle_model):
         if len(moving) == 0:
-            self._tracks = np.zeros((0, self.N + 1, 2))
+            self._tracks, self._track_distance = np.zeros((0, self.N + 1, 2)), np.zeros(0)
             self.diagnostics.obstacle_samples = np.zeros((0, self.P, self.N + 1, 2))
             return
         if obstacle_model is None:

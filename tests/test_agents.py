@@ -42,14 +42,14 @@ def test_rollout_equals_a_brute_force_loop(name):
     u = random_controls(agent, rng, n, k)
     x0 = np.array([1.0, -2.0, 3.0])  # heading beyond pi: rollouts wrap the start heading
     states = agent.rollout(x0, u, DT)
-    assert states.shape == (n + 1, 3, k)
+    assert states.shape == (3, n + 1, k) and states[0].flags.c_contiguous
     for j in range(k):
         s = [x0[0], x0[1], (x0[2] + math.pi) % (2 * math.pi) - math.pi]
         expected = [s]
         for i in range(n):
             s = brute_step(agent, s, u[i, :, j])
             expected.append(s)
-        np.testing.assert_allclose(states[:, :, j], expected, rtol=0, atol=2e-6)
+        np.testing.assert_allclose(states[:, :, j].T, expected, rtol=0, atol=2e-6)
 
 
 @pytest.mark.parametrize("name", AGENTS)
@@ -62,7 +62,7 @@ def test_rollout_from_several_starts_equals_separate_rollouts(name):
         np.testing.assert_array_equal(
             both[:, :, s * 8 : (s + 1) * 8], agent.rollout(starts[:, s], u, DT)
         )
-    np.testing.assert_array_equal(agent.rollout_one(starts[:, 0], u[:, :, 3], DT), both[:, :, 3])
+    np.testing.assert_array_equal(agent.rollout_one(starts[:, 0], u[:, :, 3], DT), both[:, :, 3].T)
 
 
 @pytest.mark.parametrize("name", AGENTS)
@@ -177,11 +177,11 @@ def test_a_registered_agent_plans_with_every_controller():
 
         def rollout(self, x0, u, dt, starts=1):
             n, _, k = u.shape
-            out = np.zeros((n + 1, 3, starts, k))
-            out[0] = np.reshape(x0, (3, starts, -1))
-            out[1:, :2] = out[0, :2] + dt * np.cumsum(u, axis=0)[:, :, None, :]
-            out[1:, 2] = out[0, 2]
-            return out.reshape(n + 1, 3, starts * k)
+            out = np.zeros((3, n + 1, starts, k))  # state-major: x, y, theta
+            out[:, 0] = np.reshape(x0, (3, starts, -1))
+            out[:2, 1:] = out[:2, :1] + dt * np.cumsum(u, axis=0).transpose(1, 0, 2)[:, :, None]
+            out[2, 1:] = out[2, 0]
+            return out.reshape(3, n + 1, starts * k)
 
         def jacobians(self, states, U, dt):
             B = np.zeros((len(U), 3, 2))

@@ -70,7 +70,7 @@ def test_unreachable_obstacles_are_skipped_exactly():
     # Skipping is exact: the far obstacle's own futures would hit no rollout.
     x = rollout_time_major(state, np.full((ctrl.N, 3), [-1.0, 0.0, 1.0]), ctrl.agent.v, ctrl.dt)
     far_track = np.broadcast_to(far[:, None, :2], (1, ctrl.N + 1, 2))
-    assert collision_counts(x[:, 0], x[:, 1], far_track, np.array([1.5])).sum() == 0
+    assert collision_counts(x[0], x[1], far_track, np.array([1.5])).sum() == 0
 
 
 def test_dc_needs_obstacle_model():

@@ -16,7 +16,11 @@ DBSCAN: radius dbscan_eps, by default the radius of the ball that holds 16 % of 
 normal in nu dimensions (0.202 for one control, 0.591 for two, 0.916 for three: the same share
 of the samples around the centre of the sampling distribution for every agent; the paper asks
 for clusters below 20 % of the samples); min_samples dbscan_min_samples. Noise points (label
--1) belong to no cluster; with no cluster at all the step falls back to Alg. 1 over all samples.
+-1) belong to no cluster, except the lowest-cost sample: when DBSCAN finds clusters but leaves it
+noise (a sample in the sparse tail of the sampling distribution), it and the noise points within
+the radius of it form one more cluster, so the best rollout is always a candidate (SPEC: the
+best sample is never a noise point). With no cluster at all the step falls back to Alg. 1 over
+all samples.
 Each cluster's control sequence is rolled out without noise and the one with the least cost J
 is applied. Labels from dcmppi.control.dbscan (sklearn's labels, compiled with numba); the
 features, per-cluster weights and updates are numba loops (one pass over the samples).
@@ -85,9 +89,16 @@ def _features(eps, S, inv, cost_scale):
     return out
 
 
-def cluster_labels(features, dbscan_eps, min_samples=DBSCAN_MIN_SAMPLES):
-    """DBSCAN labels (K,), -1 for noise, for (K, d) features."""
-    return dbscan(features, dbscan_eps, min_samples)
+def cluster_labels(features, dbscan_eps, min_samples=DBSCAN_MIN_SAMPLES, best=None):
+    """DBSCAN labels (K,), -1 for noise, for (K, d) features. With `best` (the index of the
+    lowest-cost sample), when there are clusters but the best sample is noise, it and the noise
+    points within dbscan_eps of it get a cluster of their own."""
+    labels = dbscan(features, dbscan_eps, min_samples)
+    if best is not None and labels[best] < 0 <= labels.max(initial=-1):
+        gap = features - features[best]
+        near = (labels < 0) & (np.einsum("kd,kd->k", gap, gap) <= dbscan_eps * dbscan_eps)
+        labels[near] = labels.max(initial=-1) + 1
+    return labels
 
 
 def cluster_updates(U0, eps, S, lambda_, labels, raw=None, bound=None):
@@ -200,7 +211,8 @@ class ClusteredMPPI(MPPI):
     def _solve(self, state):
         eps, states, J, S = self.rollouts(state)
         features = cluster_features(eps, S, self._feature_scale, self._cost_scale)
-        labels = cluster_labels(features, self.dbscan_eps, self.dbscan_min_samples)
+        best = int(np.argmin(S))
+        labels = cluster_labels(features, self.dbscan_eps, self.dbscan_min_samples, best)
         self.record(eps, states, J, S)
         d = self.diagnostics
         d.labels, d.features = labels, features

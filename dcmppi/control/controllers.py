@@ -316,13 +316,13 @@ class Controller:
         return u, u - U0[:, :, None]
 
     def evaluate(self, x0, u, starts=1):
-        """Rollouts and costs. x0: (3,) or (3, R); u: (N, nu, R). Returns states (N+1, 3, R),
+        """Rollouts and costs. x0: (3,) or (3, R); u: (N, nu, R). Returns states (3, N + 1, R),
         J (R,).
 
         starts = S > 1: x0 (3, S) start states that all take the R sequences; R becomes S R.
         """
         states = self.agent.rollout(x0, u, self.dt, starts)
-        x, y = states[:, 0], states[:, 1]
+        x, y = states[0], states[1]
         J = goal_distance(x, y, self._goal)
         if not self._grid.empty and self.alpha:
             J += self.alpha * self._grid.count(x, y)

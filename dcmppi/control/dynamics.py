@@ -82,12 +82,13 @@ def rollout_time_major(x0, omega, v, dt, starts=1):
       v: forward speed, a number (Dubins) or (N, K) per period (unicycle) [m/s].
       dt: control period [s].
     Returns:
-      (N + 1, 3, S K) states: [i, 0] = x, [i, 1] = y, [i, 2] = theta at step i (x_0 .. x_N);
-      columns s K .. (s + 1) K - 1 start from x0[:, s].
+      (3, N + 1, S K) states, state-major: [0, i] = x, [1, i] = y, [2, i] = theta at step i
+      (x_0 .. x_N), so x and y are contiguous (N + 1, S K) arrays for the cost kernels; columns
+      s K .. (s + 1) K - 1 start from x0[:, s].
     """
     n, k = omega.shape
-    out = np.empty((n + 1, 3, starts, k))
-    out[0] = np.reshape(x0, (3, starts, -1))
+    out = np.empty((3, n + 1, starts, k))
+    out[:, 0] = np.reshape(x0, (3, starts, -1))
     scalar = np.ndim(v) == 0
     a, mid, step = _arcs(out, omega, 0.5 * dt, v * dt if scalar else dt)
     if step is None:  # a sharp turn: sinc beyond its series
@@ -95,28 +96,28 @@ def rollout_time_major(x0, omega, v, dt, starts=1):
     if not scalar:
         step *= v
     _positions(out, step, np.cos(mid), np.sin(mid))
-    return out.reshape(n + 1, 3, starts * k)
+    return out.reshape(3, n + 1, starts * k)
 
 
 @numba.njit(cache=True)
 def _arcs(out, omega, half_dt, vdt):
-    """The arcs of every period: wraps the start headings out[0, 2] to [-pi, pi) and writes
-    theta_{i+1} = theta_i + 2 a_i into out[:, 2].
-    out: (n + 1, 3, S, K); omega: (n, K).
+    """The arcs of every period: wraps the start headings out[2, 0] to [-pi, pi) and writes
+    theta_{i+1} = theta_i + 2 a_i into out[2].
+    out: (3, n + 1, S, K); omega: (n, K).
     Returns a = omega dt / 2 (n, K), the mid-period headings float32(theta_i + a_i) (n, S, K),
     and the chords v dt sinc(a) (n, K), or None when some |a| is beyond sinc's series."""
     n, starts, k = omega.shape[0], out.shape[2], out.shape[3]
     for s in range(starts):
         for j in range(k):
-            out[0, 2, s, j] = _wrap(out[0, 2, s, j])
+            out[2, 0, s, j] = _wrap(out[2, 0, s, j])
     a = omega * half_dt
     mid = np.empty((n, starts, k), dtype=np.float32)
     for i in range(n):
         for s in range(starts):
             for j in range(k):
-                theta = out[i, 2, s, j]
+                theta = out[2, i, s, j]
                 mid[i, s, j] = np.float32(theta + a[i, j])
-                out[i + 1, 2, s, j] = theta + (a[i, j] + a[i, j])
+                out[2, i + 1, s, j] = theta + (a[i, j] + a[i, j])
     if a.size and np.abs(a).max() >= _SINC_SERIES_MAX:
         return a, mid, None
     return a, mid, vdt * _sinc_series(a)
@@ -124,14 +125,14 @@ def _arcs(out, omega, half_dt, vdt):
 
 @numba.njit(cache=True)
 def _positions(out, step, cos, sin):
-    """x_{i+1} = x_i + step_i cos_i and y likewise into out[:, :2] (from out[0]).
-    out: (n + 1, 3, S, K); step: (n, K) arc lengths' chords; cos, sin: (n, S, K) float32."""
+    """x_{i+1} = x_i + step_i cos_i and y likewise into out[:2] (from out[:2, 0]).
+    out: (3, n + 1, S, K); step: (n, K) arc lengths' chords; cos, sin: (n, S, K) float32."""
     n, starts, k = step.shape[0], out.shape[2], out.shape[3]
     for i in range(n):
         for s in range(starts):
             for j in range(k):
-                out[i + 1, 0, s, j] = out[i, 0, s, j] + step[i, j] * np.float64(cos[i, s, j])
-                out[i + 1, 1, s, j] = out[i, 1, s, j] + step[i, j] * np.float64(sin[i, s, j])
+                out[0, i + 1, s, j] = out[0, i, s, j] + step[i, j] * np.float64(cos[i, s, j])
+                out[1, i + 1, s, j] = out[1, i, s, j] + step[i, j] * np.float64(sin[i, s, j])
 
 
 def rollout(state, U, v, dt):
@@ -144,7 +145,7 @@ def rollout(state, U, v, dt):
       (K, N + 1, 3) states x_0 .. x_N (a view of the time-major array), or (N + 1, 3) for 1-D U.
     """
     U = np.asarray(U, dtype=float)
-    states = rollout_time_major(state, np.atleast_2d(U).T, v, dt).transpose(2, 0, 1)
+    states = rollout_time_major(state, np.atleast_2d(U).T, v, dt).transpose(2, 1, 0)
     return states[0] if U.ndim == 1 else states
 
 

@@ -39,7 +39,7 @@ class MPPI(Controller):
     """
 
     def rollouts(self, state):
-        """Sample, roll out and score: eps (N, nu, K), states (N + 1, 3, K), J (K,), S (K,)."""
+        """Sample, roll out and score: eps (N, nu, K), states (3, N + 1, K), J (K,), S (K,)."""
         u, eps = self.controls(self.U, self.sample())
         states, J = self.evaluate(state, u)
         S = J + self.importance(self.U, eps)
@@ -47,7 +47,7 @@ class MPPI(Controller):
 
     def record(self, eps, states, J, S):
         d = self.diagnostics
-        d.eps, d.states, d.J, d.S = eps.transpose(2, 0, 1), states.transpose(2, 0, 1), J, S
+        d.eps, d.states, d.J, d.S = eps.transpose(2, 0, 1), states.transpose(2, 1, 0), J, S
         d.warm_start = self.U
 
     def _solve(self, state):

@@ -149,7 +149,7 @@ class TubeMPPI(MPPI):
     def _two_solves(self, z, state, u, eps):
         """Rollouts from the nominal state z and the real state with the same controls u.
 
-        Returns the chosen solve's states (N + 1, 3, K), J (K,), S (K,) and the reset flag. When
+        Returns the chosen solve's states (3, N + 1, K), J (K,), S (K,) and the reset flag. When
         z equals the real state (after every reset on a noise-free model) both solves are the
         same computation, so one batch of K rollouts stands for both. Otherwise one batch of 2K
         rollouts from the two start states (heading increments and sinc terms shared).

@@ -7,7 +7,7 @@ holonomic robot's planar speed). The planners see an agent through:
     agent.controls            names of the nu controls, in order
     agent.lower, agent.upper  (nu,) box bounds; agent.norm_axes, agent.norm_limit
     agent.project(u)          controls (N, nu, K) moved into the bounds (clip, then norm)
-    agent.rollout(x0, u, dt)  states (N + 1, 3, K) of K control sequences u (N, nu, K)
+    agent.rollout(x0, u, dt)  states (3, N + 1, K) of K control sequences u (N, nu, K)
     agent.step(x, u, dt)      one exact control period, any leading shape
     agent.jacobians(X, U, dt) A (N, 3, 3), B (N, 3, nu) of that step along a trajectory
     agent.first_guess(x, goal, N)   the warm start (N, nu) of an episode's first step
@@ -200,7 +200,8 @@ class Agent:
           u: (N, nu, K) controls, already within the bounds.
           dt: control period [s].
         Returns:
-          (N + 1, 3, S K) states x_0 .. x_N; columns s K .. (s + 1) K - 1 start from x0[:, s].
+          (3, N + 1, S K) states x_0 .. x_N, state-major (x, y, theta: each (N + 1, S K)
+          contiguous for the cost kernels); columns s K .. (s + 1) K - 1 start from x0[:, s].
         """
         raise NotImplementedError
 
@@ -216,7 +217,7 @@ class Agent:
     def rollout_one(self, state, U, dt):
         """States (N + 1, 3) of one control sequence U (N, nu) from state (3,)."""
         U = np.asarray(U, dtype=float).reshape(-1, self.nu)
-        return self.rollout(np.asarray(state, dtype=float), U[:, :, None], dt)[:, :, 0]
+        return self.rollout(np.asarray(state, dtype=float), U[:, :, None], dt)[:, :, 0].T
 
     def __repr__(self):
         args = ", ".join(f"{k}={v!r}" for k, v in self.params.items())

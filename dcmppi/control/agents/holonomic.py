@@ -43,10 +43,10 @@ class Holonomic(Agent):
 
     def rollout(self, x0, u, dt, starts=1):
         n, _, k = u.shape
-        out = np.empty((n + 1, 3, starts, k))
-        out[0] = np.reshape(x0, (3, starts, -1))
+        out = np.empty((3, n + 1, starts, k))
+        out[:, 0] = np.reshape(x0, (3, starts, -1))
         _integrate(out, u, dt)
-        return out.reshape(n + 1, 3, starts * k)
+        return out.reshape(3, n + 1, starts * k)
 
     def step(self, state, u, dt):
         return np.asarray(state, dtype=float) + dt * np.asarray(u, dtype=float)
@@ -61,13 +61,13 @@ class Holonomic(Agent):
 @numba.njit(cache=True)
 def _integrate(out, u, dt):
     """out[i + 1] = out[i] + dt u_i, start headings wrapped.
-    out: (n + 1, 3, S, K); u: (n, 3, K)."""
+    out: (3, n + 1, S, K); u: (n, 3, K)."""
     n, starts, k = u.shape[0], out.shape[2], out.shape[3]
     for s in range(starts):
         for j in range(k):
-            out[0, 2, s, j] = _wrap(out[0, 2, s, j])
-    for i in range(n):
-        for c in range(3):
+            out[2, 0, s, j] = _wrap(out[2, 0, s, j])
+    for c in range(3):
+        for i in range(n):
             for s in range(starts):
                 for j in range(k):
-                    out[i + 1, c, s, j] = out[i, c, s, j] + dt * u[i, c, j]
+                    out[c, i + 1, s, j] = out[c, i, s, j] + dt * u[i, c, j]

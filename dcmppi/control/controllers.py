@@ -87,6 +87,8 @@ class Diagnostics:
     chosen: index of the chosen cluster, -1 for the fallback to Alg. 1 over all samples.
     nominal_state: (3,) and nominal_reset: bool, tube only.
     obstacle_samples: (L', P, N + 1, 2) sampled futures of the obstacles within reach, dc only.
+    obstacle_mean: (L, 5) and obstacle_cov: (L, 5, 5) posterior of every moving obstacle's
+    x, y, heading, speed, turn rate (dc with prediction="ekf").
     """
 
     eps: np.ndarray = None
@@ -104,6 +106,8 @@ class Diagnostics:
     nominal_state: np.ndarray = None
     nominal_reset: bool = None
     obstacle_samples: np.ndarray = None
+    obstacle_mean: np.ndarray = None
+    obstacle_cov: np.ndarray = None
 
 
 def _positive(name, value, integer=False, allow_zero=False):
@@ -237,7 +241,8 @@ class Controller:
         Args:
           state: (3,) x, y, theta. goal: (2,) x, y.
           static: (M, 3) x, y, radius of static cylinders (radius-0 rows ignored), or None.
-          moving: (L, 4) x, y, heading, radius of moving cylinders now, or None.
+          moving: (L, 4) x, y, heading, radius of moving cylinders now (heading nan: not
+            observed), or None.
           obstacle_model: (4,) v_mean, v_std, omega_mean, omega_std of the moving obstacles.
         Returns:
           (nu,) controls within the agent's bounds (dubins: the turn rate omega).
@@ -256,7 +261,7 @@ class Controller:
         self._goal = goal
         if self.U is None:
             self.U = self.agent.project(self.agent.first_guess(state, goal, self.N), axis=1)
-        moving = valid_cylinders(moving, "moving", columns=4)
+        moving = valid_cylinders(moving, "moving", columns=4, unobserved=2)
         self._prepare_obstacles(state, moving, obstacle_model)
         u = self._solve(state)
         self.diagnostics.action = u

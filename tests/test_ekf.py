@@ -172,7 +172,10 @@ def test_dc_rejects_bad_observations_and_parameters():
     with pytest.raises(ValueError, match="finite"):  # nan is "not observed", inf is an error
         ctrl.act(state, goal, None, np.array([[3.0, 1.0, np.inf, 1.0]] * 2), CROWD_MODEL)
     ctrl.reset()  # a new episode may have other obstacles
+    ctrl.act(state, goal, None, None, None)  # none yet: the filter waits, needs no model
     ctrl.act(state, goal, None, two[:1], CROWD_MODEL)
+    with pytest.raises(ValueError, match="number and order"):
+        ctrl.act(state, goal, None, None, CROWD_MODEL)
     with pytest.raises(ValueError, match="prediction"):
         dcmppi.make_controller("dc", prediction="kalman")
     with pytest.raises(ValueError, match="measurement_std"):

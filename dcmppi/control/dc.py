@@ -9,8 +9,9 @@ speed and turn rate; the true obstacles keep theirs constant too. Where the futu
   positions only) gets a heading uniform in [0, 2 pi) per future.
 - "ekf": each obstacle's whole state (x, y, heading, speed, turn rate) drawn from the posterior
   of its own filter (dcmppi.control.prediction.ObstacleFilter): started from the population
-  prior at the first step, it takes the observed positions once per act() (headings are not
-  used), dt apart, with position noise std `measurement_std`. Obstacles are matched by index.
+  prior at the first step with obstacles, it takes the observed positions once per act()
+  (headings are not used), dt apart, with position noise std `measurement_std`. Obstacles are
+  matched by index; their number must stay the same until reset().
 Reflections off the map boundary are not predicted (5 s horizon). Every future has
 theta = 1 / P (a Monte-Carlo collision probability) and a state x_i pays
 beta * sum_l sum_p theta * 1[|p_i - o_l^p(t_i)| <= robot_radius + r_l] (paper Eq. 30-31).
@@ -81,8 +82,8 @@ class DCMPPI(ClusteredMPPI):
         self.filter = None
 
     def _prepare_obstacles(self, state, moving, obstacle_model):
-        if self.prediction == "ekf":
-            self._track(moving, obstacle_model)
+        if self.prediction == "ekf" and (len(moving) or self.filter is not None):
+            self._track(moving, obstacle_model)  # starts at the first step with obstacles
         if len(moving) == 0:
             self._tracks = np.zeros((0, self.N + 1, 2))
             self.diagnostics.obstacle_samples = np.zeros((0, self.P, self.N + 1, 2))

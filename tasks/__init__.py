@@ -6,7 +6,9 @@
 Every task takes `random`, `noise` ("none" | "control" | "process"), the robot's `agent`
 ("dubins", "unicycle", "holonomic") with its parameters (dubins: v, r_min; others: v_max,
 omega_max) and `robot_radius`, the control-noise variances `Sigma`, the process-noise stds
-`process_velocity_std` and `process_yaw_rate_std`, `time_limit` [s], plus its own kwargs.
+`process_velocity_std` and `process_yaw_rate_std`, `time_limit` [s],
+`obstacle_measurement_std` [m] (noisy moving-obstacle positions, headings nan), plus its own
+kwargs.
 """
 
 from ._gl import choose_backend

@@ -31,6 +31,7 @@ PROCESS_VELOCITY_STD = 0.1  # [m/s] std of the planar velocity disturbance, per 
 PROCESS_YAW_RATE_STD = 0.1  # [rad/s] std of the yaw-rate disturbance
 OBSTACLE_HALF_HEIGHT = 0.5  # [m]
 PARKED = -1000.0  # [m] x, y of unused static slots (also disabled and hidden)
+MEASUREMENT_STREAM = 1  # spawn key of the measurement-noise stream under the noise seed
 _HIDDEN_GROUP = 3  # geom group that MuJoCo's renderer hides by default
 
 
@@ -330,6 +331,11 @@ class Navigation(base.Task):
     the variance its planners sample with); "process" adds that, plus velocity disturbances
     (std process_velocity_std per planar axis, process_yaw_rate_std for the yaw rate) held for
     the control step as forces that the actuators have to fight.
+    Measurements: obstacle_measurement_std > 0 [m] adds N(0, std^2) to each coordinate of every
+    moving obstacle's observed position at every control step (a stream of its own, derived
+    from the episode's noise seed, so world and control noise stay those of std = 0), and the
+    headings are then not observed: that column of `moving_obstacles` is nan. Rows keep their
+    order (obstacles are matched by index). std = 0 (default) observes the exact poses.
     """
 
     default_agent = "dubins"
@@ -344,6 +350,7 @@ class Navigation(base.Task):
         process_velocity_std=PROCESS_VELOCITY_STD,
         process_yaw_rate_std=PROCESS_YAW_RATE_STD,
         time_limit=None,
+        obstacle_measurement_std=0.0,
         **agent_params,
     ):
         """Args: see the class docstring; time_limit [s] defaults to the task's own."""
@@ -363,9 +370,13 @@ class Navigation(base.Task):
             ]
         )
         self._time_limit = None if time_limit is None else check_positive("time_limit", time_limit)
+        self.obstacle_measurement_std = check_positive(
+            "obstacle_measurement_std", obstacle_measurement_std, allow_zero=True
+        )
         self.noise = noise
         super().__init__(random=random)
         self._noise_random = np.random.RandomState(0)
+        self._measurement_random = np.random.default_rng(0)
         self.world = None
         self._outcome = None
         self._min_clearance = np.inf
@@ -413,6 +424,7 @@ class Navigation(base.Task):
             raise RuntimeError(f"{type(self).__name__} drew a world of the wrong size")
         self.world = world
         self._noise_random = np.random.RandomState(noise_seed)
+        self._measurement_random = np.random.default_rng([noise_seed, MEASUREMENT_STREAM])
         velocity = robots.start_velocity(self.agent, world.start[2])
         command = self._command(self.agent.first_guess(world.start, world.goal, 1)[0])
         physics.set_world(world, velocity, command, self.agent.max_speed)
@@ -470,9 +482,18 @@ class Navigation(base.Task):
         obs = self._observation.copy()
         obs["robot_pose"] = physics.robot_pose()
         obs["robot_velocity"] = physics.robot_velocity()
-        obs["moving_obstacles"] = physics.moving_obstacles()
+        obs["moving_obstacles"] = self._measure(physics.moving_obstacles())
         obs["clearance"] = np.array([physics.clearance()])
         return obs
+
+    def _measure(self, moving):
+        """The observed moving obstacles (L, 4): positions with measurement noise and headings
+        nan when obstacle_measurement_std > 0, else the exact poses."""
+        std = self.obstacle_measurement_std
+        if std > 0:
+            moving[:, :2] += std * self._measurement_random.standard_normal((len(moving), 2))
+            moving[:, 2] = np.nan
+        return moving
 
     def get_reward(self, physics):
         return 1.0 if self._outcome == "goal" else 0.0

@@ -4,7 +4,8 @@ import numpy as np
 
 import dcmppi
 from dcmppi.control.costs import TrackIndex, collision_counts
-from dcmppi.control.dynamics import rollout_time_major
+from dcmppi.control.dc import sample_speeds
+from dcmppi.control.dynamics import obstacle_futures, rollout_time_major
 
 MODEL = np.array([1.0, 0.05, 0.0, 0.02])  # v_mean, v_std, omega_mean, omega_std
 
@@ -81,3 +82,25 @@ def test_dc_needs_obstacle_model():
         assert "obstacle_model" in str(e)
     else:
         raise AssertionError("no ValueError")
+
+
+def test_prior_futures_come_from_the_known_gaussian_and_the_observed_pose():
+    """prediction="prior" draws speeds and turn rates first (the paper's stream, unchanged by the
+    ekf option) and starts every future at the observed pose."""
+    ctrl = dcmppi.make_controller("dc", K=8, N=10, P=6, seed=3)
+    moving = np.array([[2.0, 1.0, 0.4, 1.0], [-1.0, 1.5, 2.0, 0.5]])
+    ctrl.act(np.zeros(3), np.array([5.0, 0.0]), None, moving, MODEL)
+    speed, turn = sample_speeds(np.random.default_rng(3), MODEL, 2, 6)
+    expected = obstacle_futures(moving, speed, turn, 10, ctrl.dt)
+    np.testing.assert_array_equal(ctrl.diagnostics.obstacle_samples, expected)
+
+
+def test_prior_with_unobserved_headings_draws_them_uniformly():
+    ctrl = dcmppi.make_controller("dc", K=8, N=30, P=4000, seed=0)
+    moving = np.array([[2.0, 1.0, np.nan, 1.0]])
+    ctrl.act(np.zeros(3), np.array([5.0, 0.0]), None, moving, MODEL)
+    ends = ctrl.diagnostics.obstacle_samples[0, :, -1] - moving[0, :2]  # (P, 2) after 3 s
+    heading = np.arctan2(ends[:, 1], ends[:, 0])
+    counts = np.histogram(heading, bins=8, range=(-np.pi, np.pi))[0]
+    assert counts.min() > 0.8 * 500 and counts.max() < 1.2 * 500
+    np.testing.assert_allclose(np.hypot(*ends.T).mean(), 3.0, rtol=0.05)  # v_mean 1 m/s, 3 s

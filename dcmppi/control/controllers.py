@@ -90,6 +90,8 @@ class Diagnostics:
     nominal_state: (3,), nominal_reset: bool and nominal_deviation: the real-to-nominal
       position distance at the start of the step, before any reset [m], tube only.
     obstacle_samples: (L', P, N + 1, 2) sampled futures of the obstacles within reach, dc only.
+    obstacle_mean: (L, 5) and obstacle_cov: (L, 5, 5) posterior of every moving obstacle's
+    x, y, heading, speed, turn rate (dc with prediction="ekf").
     """
 
     eps: np.ndarray = None
@@ -110,6 +112,8 @@ class Diagnostics:
     nominal_reset: bool = None
     nominal_deviation: float = float("nan")
     obstacle_samples: np.ndarray = None
+    obstacle_mean: np.ndarray = None
+    obstacle_cov: np.ndarray = None
 
 
 def _positive(name, value, integer=False, allow_zero=False):
@@ -243,7 +247,8 @@ class Controller:
         Args:
           state: (3,) x, y, theta. goal: (2,) x, y.
           static: (M, 3) x, y, radius of static cylinders (radius-0 rows ignored), or None.
-          moving: (L, 4) x, y, heading, radius of moving cylinders now, or None.
+          moving: (L, 4) x, y, heading, radius of moving cylinders now (heading nan: not
+            observed), or None.
           obstacle_model: (4,) v_mean, v_std, omega_mean, omega_std of the moving obstacles.
           bounds: (4,) xmin, ymin, xmax, ymax of the map, or None: with bounds a state whose
             centre leaves the map costs alpha, as a collision with the static map does.
@@ -264,7 +269,7 @@ class Controller:
         self._goal = goal
         if self.U is None:
             self.U = self.agent.project(self.agent.first_guess(state, goal, self.N), axis=1)
-        moving = valid_cylinders(moving, "moving", columns=4)
+        moving = valid_cylinders(moving, "moving", columns=4, unobserved=2)
         self._prepare_obstacles(state, moving, obstacle_model)
         self._track_index = TrackIndex(self._tracks, self._track_distance)
         u = self._solve(state)

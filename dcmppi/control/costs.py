@@ -20,18 +20,26 @@ RESOLUTION = 0.1  # occupancy-grid cell size [m]
 MAX_CELLS = 1e8  # occupancy-grid cells (100 MB)
 
 
-def valid_cylinders(cylinders, name, columns=3):
-    """Rows of an (M, columns) cylinder array, radius last, with radius > 0 (0 rows are padding)."""
+def valid_cylinders(cylinders, name, columns=3, unobserved=None):
+    """Rows of an (M, columns) cylinder array, radius last, with radius > 0 (0 rows are padding).
+
+    unobserved: index of a column that may be nan (a value the sensor does not give, such as a
+    moving obstacle's heading); every other entry must be finite.
+    """
     if cylinders is None:
         return np.zeros((0, columns))
     cylinders = np.asarray(cylinders, dtype=float)
     if cylinders.ndim != 2 or cylinders.shape[1] != columns:
         raise ValueError(f"{name} must have shape (rows, {columns}); got {cylinders.shape}")
-    bad = ~np.isfinite(cylinders).all(axis=1) | (cylinders[:, -1] < 0)
+    finite = np.isfinite(cylinders)
+    if unobserved is not None:
+        finite[:, unobserved] |= np.isnan(cylinders[:, unobserved])
+    bad = ~finite.all(axis=1) | (cylinders[:, -1] < 0)
     if bad.any():
+        column = "" if unobserved is None else f" (column {unobserved} may be nan: not observed)"
         raise ValueError(
-            f"{name} obstacles must be finite with radius >= 0 (0 marks a padding row); "
-            f"bad rows {np.flatnonzero(bad)}"
+            f"{name} obstacles must be finite{column} with radius >= 0 (0 marks a padding "
+            f"row); bad rows {np.flatnonzero(bad)}"
         )
     return cylinders[cylinders[:, -1] > 0]
 

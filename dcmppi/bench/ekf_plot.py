@@ -1,0 +1,115 @@
+"""How well dc's obstacle filters estimate speed and turn rate over one crowd episode.
+
+    from dcmppi.bench.ekf_plot import ekf_spec, plot_ekf_errors
+    plot_ekf_errors(ekf_spec(seed=0), "ekf_errors.png")
+
+The episode is the crowd with noisy obstacle positions (task obstacle_measurement_std) driven by
+dc with prediction="ekf"; each step's posterior (Diagnostics.obstacle_mean, obstacle_cov) is
+compared with the obstacles' true, constant speeds and turn rates.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from dcmppi.bench.runner import EpisodeSpec, run_episode
+
+MEASUREMENT_STD = 0.1  # [m] the crowd's noise in the dynamic-ekf experiment
+NEAR = 3.0  # [m] obstacles whose surface came this close to the robot's are plotted
+CROWD_PARAMS = dict(Sigma=[1.0, 1.0, 0.1], perturbation="mixed", beta=100.0)  # SPEC section 4
+
+
+def ekf_spec(seed=0, measurement_std=MEASUREMENT_STD, **controller_params) -> EpisodeSpec:
+    """A crowd episode with position noise `measurement_std` [m] and dc with the EKF (the
+    crowd's shared parameters; `controller_params` override them)."""
+    params = {**CROWD_PARAMS, "prediction": "ekf", "measurement_std": measurement_std}
+    return EpisodeSpec(
+        task="crowd",
+        controller="dc",
+        seed=seed,
+        task_params={"obstacle_measurement_std": measurement_std},
+        controller_params={**params, **controller_params},
+    )
+
+
+@dataclasses.dataclass
+class TrackErrors:
+    """One episode's estimates. T posterior steps, L obstacles.
+
+    time: (T,) [s] of each posterior. error: (T, L, 2) estimate minus truth of speed [m/s] and
+    turn rate [rad/s]. std: (T, L, 2) their posterior stds. clearance: (T, L) true surface
+    distance robot-obstacle [m] at that time. outcome: the episode's outcome.
+    """
+
+    time: np.ndarray
+    error: np.ndarray
+    std: np.ndarray
+    clearance: np.ndarray
+    outcome: str
+
+
+def track_errors(spec: EpisodeSpec) -> TrackErrors:
+    """Runs `spec` (dc with prediction="ekf" on a task with moving obstacles) and records the
+    speed and turn-rate posterior of every obstacle at every step."""
+    if spec.controller != "dc" or spec.controller_params.get("prediction") != "ekf":
+        raise ValueError('track_errors needs controller "dc" with prediction="ekf"')
+    means, variances, times, clearances, truth = [], [], [], [], []
+
+    def record(episode):
+        # After step k the diagnostics hold the posterior of observation k - 1.
+        d = episode.controller.diagnostics
+        if d.obstacle_mean is not None:
+            means.append(d.obstacle_mean[:, 3:])
+            variances.append(np.diagonal(d.obstacle_cov, axis1=1, axis2=2)[:, 3:])
+        physics, world = episode.env.physics, episode.env.task.world
+        obstacles = physics.moving_obstacles()
+        gap = np.hypot(*(obstacles[:, :2] - physics.robot_pose()[:2]).T)
+        times.append(physics.data.time)
+        clearances.append(gap - obstacles[:, 3] - physics.robot_radius)
+        if not truth:
+            truth.append(np.column_stack([world.moving_speed, world.moving_turn_rate]))
+
+    outcome = run_episode(spec, on_step=record)["outcome"]
+    T = len(means)
+    return TrackErrors(
+        time=np.asarray(times[:T]),
+        error=np.asarray(means) - truth[0],
+        std=np.sqrt(np.asarray(variances)),
+        clearance=np.asarray(clearances[:T]),
+        outcome=outcome,
+    )
+
+
+def plot_ekf_errors(spec: EpisodeSpec, path, near=NEAR) -> TrackErrors:
+    """Plots the speed and turn-rate errors with their 2-sigma bands over time for the
+    obstacles that came within `near` m of the robot; writes the PNG to `path`."""
+    from dcmppi.render.draw import pyplot
+
+    plt = pyplot()
+    errors = track_errors(spec)
+    close = np.flatnonzero(errors.clearance.min(axis=0) <= near)
+    fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    labels = ("speed error [m/s]", "turn-rate error [rad/s]")
+    for ax, j, label in zip(axes, (0, 1), labels, strict=True):
+        for n, l in enumerate(close):
+            color = plt.cm.tab10(n % 10)
+            e, s = errors.error[:, l, j], 2.0 * errors.std[:, l, j]
+            ax.plot(errors.time, e, color=color, lw=1.0, label=f"obstacle {l}")
+            ax.fill_between(errors.time, -s, s, color=color, alpha=0.12, lw=0)
+        ax.axhline(0.0, color="k", lw=0.5)
+        ax.set_ylabel(label)
+    axes[-1].set_xlabel("time [s]  (lines: estimate - truth; bands: +-2 posterior std)")
+    axes[0].set_title(
+        f"dc prediction='ekf', crowd seed {spec.seed}, position noise "
+        f"{spec.task_params.get('obstacle_measurement_std', 0)} m: obstacles within {near} m "
+        f"({errors.outcome})"
+    )
+    if len(close) <= 10:
+        axes[0].legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(Path(path), dpi=120)
+    plt.close(fig)
+    return errors

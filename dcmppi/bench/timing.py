@@ -19,6 +19,7 @@ alike.
 """
 
 import argparse
+import dataclasses
 import json
 import platform
 import sys
@@ -142,16 +143,16 @@ class ClosedLoop:
 
 
 def time_cases(cases, steps):
-    """Median and p95 ms per step of every (name, problem) case.
+    """Median and p95 ms per step of every case (see CASES).
 
     The closed loops of one problem family (forest, crowd) run interleaved, one step of each
-    case in turn, so a change in machine load affects them alike and the ratios to mppi stay
-    meaningful on a busy machine; the families run one after the other.
+    case in turn, so a change in machine load affects them alike and the ratios stay meaningful
+    on a busy machine; the families run one after the other.
     """
-    loops = [ClosedLoop(name, problem, steps) for name, problem in cases]
+    loops = [ClosedLoop(c.controller, c.problem, steps, **c.params) for c in cases]
     families = {}
-    for loop, (_, problem) in zip(loops, cases, strict=True):
-        families.setdefault(problem.split("+")[0], []).append(loop)
+    for loop, case in zip(loops, cases, strict=True):
+        families.setdefault(case.problem.split("+")[0], []).append(loop)
     for family in families.values():
         for _ in range(steps):
             for loop in family:
@@ -167,21 +168,70 @@ def time_controller(name, problem, steps, **params):
     return loop.summary()
 
 
+@dataclasses.dataclass(frozen=True)
+class Case:
+    """One timing row: a controller with parameters on a problem, its reference row (ratios are
+    to its median) and its target (ms, or a ratio to the reference)."""
+
+    label: str
+    controller: str
+    problem: str
+    params: dict = dataclasses.field(default_factory=dict)
+    reference: str = "mppi"
+    target_ms: float | None = None
+    target_ratio: float | None = None
+
+
+TV, MIXED = {"perturbation": "time_varying"}, {"perturbation": "mixed"}
 CASES = (
-    ("mppi", "forest"),
-    ("clustered", "forest"),
-    ("tube", "forest"),
-    ("tube", "forest+push"),
-    ("mppi", "crowd"),
-    ("clustered", "crowd"),
-    ("dc", "crowd"),
+    Case("mppi", "mppi", "forest", target_ms=0.2),
+    Case("mppi tv", "mppi", "forest", TV, target_ms=0.3),
+    Case("mppi mixed", "mppi", "forest", MIXED),
+    Case("clustered", "clustered", "forest", target_ratio=1.2),
+    Case("tube", "tube", "forest", target_ratio=2.5),
+    Case("tube", "tube", "forest+push", target_ratio=2.5),
+    # agents: the same problem and perturbation kind as their dubins reference row
+    Case(
+        "mppi unicycle",
+        "mppi",
+        "forest",
+        {"agent": "unicycle", "perturbation": "constant"},
+        target_ratio=1.5,
+    ),  # fmt: skip
+    Case(
+        "mppi holonomic",
+        "mppi",
+        "forest",
+        {"agent": "holonomic", "perturbation": "constant"},
+        target_ratio=1.5,
+    ),  # fmt: skip
+    Case(
+        "mppi unicycle tv",
+        "mppi",
+        "forest",
+        {"agent": "unicycle", **TV},
+        "mppi tv",
+        target_ratio=1.5,
+    ),  # fmt: skip
+    Case(
+        "mppi holonomic mixed",
+        "mppi",
+        "forest",
+        {"agent": "holonomic", **MIXED},
+        "mppi mixed",
+        target_ratio=1.5,
+    ),  # fmt: skip
+    Case("mppi", "mppi", "crowd"),
+    Case("clustered", "clustered", "crowd"),
+    Case("dc", "dc", "crowd", target_ms=2.0),
+    Case(
+        "dc holonomic",
+        "dc",
+        "crowd",
+        {"agent": "holonomic", **MIXED, "Sigma": [1.0, 1.0, 0.1]},
+        target_ms=2.0,
+    ),  # fmt: skip
 )
-TARGETS = {("mppi", "forest"): 1.0, ("dc", "crowd"): 10.0}  # ms
-RATIO_TARGETS = {
-    ("clustered", "forest"): 1.5,
-    ("tube", "forest"): 2.5,
-    ("tube", "forest+push"): 2.5,
-}
 
 
 def main(argv=None):
@@ -195,21 +245,18 @@ def main(argv=None):
     with threadpool_limits(1):
         times = time_cases(CASES, args.steps)
     rows = [
-        {"controller": name, "problem": problem, "median_ms": median, "p95_ms": p95}
-        for (name, problem), (median, p95) in zip(CASES, times, strict=True)
-    ]
-    base = {r["problem"]: r["median_ms"] for r in rows if r["controller"] == "mppi"}
-    base["forest+push"] = base["forest"]  # mppi needs no nominal state: the push changes nothing
-    for r in rows:
-        r["ratio_to_mppi"] = r["median_ms"] / base[r["problem"]]
-        key = (r["controller"], r["problem"])
+        {"case": c.label, "controller": c.controller, "problem": c.problem, "params": c.params,
+         "median_ms": median, "p95_ms": p95}
+        for c, (median, p95) in zip(CASES, times, strict=True)
+    ]  # fmt: skip
+    median = {(r["case"], r["problem"].split("+")[0]): r["median_ms"] for r in rows}
+    for c, r in zip(CASES, rows, strict=True):
+        r["ratio"] = r["median_ms"] / median[(c.reference, c.problem.split("+")[0])]
+        r["reference"] = c.reference
         r["target"] = (
-            f"<= {TARGETS[key]} ms"
-            if key in TARGETS
-            else f"<= {RATIO_TARGETS[key]} x mppi"
-            if key in RATIO_TARGETS
-            else ""
-        )
+            f"<= {c.target_ms} ms" if c.target_ms
+            else f"<= {c.target_ratio} x {c.reference}" if c.target_ratio else ""
+        )  # fmt: skip
     info = {"K": defaults.K, "N": defaults.N, "P": defaults.P, "steps": args.steps}
     info["machine"] = (
         f"{platform.processor() or platform.machine()}, python {platform.python_version()}"
@@ -220,12 +267,12 @@ def main(argv=None):
     print(
         f"dcmppi timing: K={info['K']} N={info['N']} P={info['P']}, one thread, {args.steps} steps"
     )
-    header = f"{'controller':<10} {'problem':<11} {'median ms':>9} {'p95 ms':>7} {'x mppi':>6}"
+    header = f"{'case':<21} {'problem':<11} {'median ms':>9} {'p95 ms':>7} {'ratio':>6}"
     print(f"{header}  target")
     for r in rows:
         print(
-            f"{r['controller']:<10} {r['problem']:<11} {r['median_ms']:9.3f} {r['p95_ms']:7.3f} "
-            f"{r['ratio_to_mppi']:6.2f}  {r['target']}"
+            f"{r['case']:<21} {r['problem']:<11} {r['median_ms']:9.3f} {r['p95_ms']:7.3f} "
+            f"{r['ratio']:6.2f}  {r['target']}"
         )
     return 0
 

@@ -105,22 +105,37 @@ def _arcs(out, omega, half_dt, vdt):
     theta_{i+1} = theta_i + 2 a_i into out[2].
     out: (3, n + 1, S, K); omega: (n, K).
     Returns a = omega dt / 2 (n, K), the mid-period headings float32(theta_i + a_i) (n, S, K),
-    and the chords v dt sinc(a) (n, K), or None when some |a| is beyond sinc's series."""
+    and the chords v dt sinc(a) (n, K), or None when some |a| is beyond sinc's series. One pass
+    per step over the K samples (no temporaries)."""
     n, starts, k = omega.shape[0], out.shape[2], out.shape[3]
-    for s in range(starts):
-        for j in range(k):
-            out[2, 0, s, j] = _wrap(out[2, 0, s, j])
-    a = omega * half_dt
+    theta = out[2].reshape(n + 1, starts * k)  # contiguous views: the inner loops vectorise
+    for j in range(starts * k):
+        theta[0, j] = _wrap(theta[0, j])
+    a = np.empty((n, k))
+    chord = np.empty((n, k))
     mid = np.empty((n, starts, k), dtype=np.float32)
+    mid2 = mid.reshape(n, starts * k)
+    beyond = 0  # arcs too sharp for the series (a count, not a max: the loop vectorises)
     for i in range(n):
+        ai_row, c_row = a[i], chord[i]
+        for j in range(k):
+            ai = omega[i, j] * half_dt
+            ai_row[j] = ai
+            a2 = ai * ai
+            c_row[j] = vdt * (1.0 + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 - a2 / 5040.0)))
+            beyond += abs(ai) >= _SINC_SERIES_MAX
         for s in range(starts):
+            now, nxt, m = (
+                theta[i, s * k : (s + 1) * k],
+                theta[i + 1, s * k : (s + 1) * k],
+                mid2[i, s * k : (s + 1) * k],
+            )
             for j in range(k):
-                theta = out[2, i, s, j]
-                mid[i, s, j] = np.float32(theta + a[i, j])
-                out[2, i + 1, s, j] = theta + (a[i, j] + a[i, j])
-    if a.size and np.abs(a).max() >= _SINC_SERIES_MAX:
+                m[j] = np.float32(now[j] + ai_row[j])
+                nxt[j] = now[j] + (ai_row[j] + ai_row[j])
+    if beyond:
         return a, mid, None
-    return a, mid, vdt * _sinc_series(a)
+    return a, mid, chord
 
 
 @numba.njit(cache=True)

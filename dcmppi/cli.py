@@ -152,6 +152,8 @@ def cmd_compare(args) -> int:
 def cmd_figure(args) -> int:
     import dataclasses
 
+    import numpy as np
+
     from dcmppi.bench.runner import EpisodeSpec, check_specs
     from dcmppi.bench.snapshot import first_step
     from dcmppi.render.figures import write_figures
@@ -171,7 +173,8 @@ def cmd_figure(args) -> int:
     observation, runs, _ = first_step(spec, controllers)
     result = write_figures(observation, runs, args.out, f"{spec.task}, seed {spec.seed}")
     for name, action in result["actions"].items():
-        print(f"{name:10s} applies omega = {action:+.4f} rad/s")
+        controls = ", ".join(f"{u:+.4f}" for u in np.atleast_1d(action))
+        print(f"{name:10s} applies u = ({controls})")
     print("wrote " + ", ".join(result["files"]), file=sys.stderr)
     return 0
 

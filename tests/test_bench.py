@@ -74,19 +74,25 @@ def test_episode_is_reproducible_and_paired():
     assert (other["path"][0] == a["path"][0]).all()
 
 
+# a user's controller (tests/user_controllers.py): workers import it by name
+USER_ROWS = ("mppi", "clustered", "user_controllers:Straight")
+
+
 def test_one_and_two_workers_give_identical_rows(tmp_path):
-    exp = tiny()
+    exp = tiny(rows=USER_ROWS)
     one = run_into(tmp_path / "one.db", exp, workers=1)
     two = run_into(tmp_path / "two.db", exp, workers=2)
-    assert len(one) == len(exp.specs()) == 8
+    assert len(one) == len(exp.specs()) == 12
+    assert all(r["status"] == "ok" for r in one)
     assert deterministic(one) == deterministic(two)
 
 
 def test_ray_executor_matches_local(tmp_path):
     pytest.importorskip("ray")
-    exp = tiny(episodes=1, noises=("control",))
+    exp = tiny(episodes=1, rows=USER_ROWS, noises=("control",))
     local = run_into(tmp_path / "local.db", exp, workers=1)
     remote = run_into(tmp_path / "ray.db", exp, workers=2, executor="ray")
+    assert all(r["status"] == "ok" for r in remote)
     assert deterministic(local) == deterministic(remote)
 
 

@@ -1,9 +1,9 @@
-"""Users' controllers: package.module:ClassName, entry points, parameters, errors, workers.
+"""Users' controllers: package.module:ClassName, entry points, parameters, errors, warm-up.
 
-The classes live in tests/user_controllers.py, a module of the kind a user writes.
+The classes live in tests/user_controllers.py, a module of the kind a user writes (test_bench
+runs them in a process pool and on Ray).
 """
 
-import dataclasses
 import importlib.metadata
 import json
 
@@ -12,9 +12,6 @@ import user_controllers
 
 from dcmppi import cli
 from dcmppi.bench import plugins
-from dcmppi.bench.execution import run_experiment
-from dcmppi.bench.experiments import load_experiment
-from dcmppi.bench.results import ResultsDB
 from dcmppi.bench.runner import EpisodeSpec, check_specs, make_controller, run_episode
 
 SMALL = {"K": 32, "N": 20}
@@ -121,25 +118,6 @@ def test_entry_points_appear_by_name(monkeypatch, capsys):
     assert result["ess_mean"] is None and result["clusters_mean"] is None
 
 
-def test_user_rows_run_alike_in_one_process_a_pool_and_ray(tmp_path):
-    exp = dataclasses.replace(load_experiment("static"), task="blocked", controller_params=SMALL)
-    exp = exp.select(2, ("mppi", f"{MODULE}:Straight"), ("control",))
-    runs = {}
-    for executor, workers in [("local", 1), ("local", 2), ("ray", 2)]:
-        if executor == "ray":
-            pytest.importorskip("ray")
-        db = ResultsDB(tmp_path / f"{executor}{workers}.db", exp.config())
-        run_experiment(exp, db, workers, executor, progress=False)
-        rows = db.rows()
-        db.close()
-        assert [r["status"] for r in rows] == ["ok"] * 4, rows
-        runs[executor, workers] = [
-            (r["label"], r["env_index"], r["outcome"], r["steps"], r["min_clearance"]) for r in rows
-        ]
-    assert runs["local", 1] == runs["local", 2] == runs["ray", 2]
-    assert {label for label, *_ in runs["local", 1]} == {"mppi", f"{MODULE}:Straight"}
-
-
 def test_a_user_controller_is_warmed_up_once_per_process():
     spec = _spec(f"{MODULE}:Straight", {"gain": 1.5}, task_params={"time_limit": 5.0})
     built, acted = user_controllers.Straight.built, user_controllers.Straight.acted
@@ -150,3 +128,12 @@ def test_a_user_controller_is_warmed_up_once_per_process():
     # two episodes' controllers and their steps, plus one warm-up copy that acted once
     assert user_controllers.Straight.built - built == 3
     assert user_controllers.Straight.acted - acted == first["steps"] + second["steps"] + 1
+
+
+def test_figure_draws_a_users_sampling_controller(tmp_path, capsys):
+    argv = ["figure", "--task", "blocked", "--controllers", f"mppi,{MODULE}:Careful",
+            "--param", "K=64", "--out", str(tmp_path)]  # fmt: skip
+    assert cli.main(argv) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("mppi       applies u = (") and f"{MODULE}:Careful" in out[1]
+    assert (tmp_path / "values.png").stat().st_size > 1000

@@ -1,9 +1,14 @@
-"""The `dcmppi` command line: tasks, run, bench, report, timing."""
+"""The `dcmppi` command line: tasks, controllers, run, compare, figure, bench, report, timing.
+
+Controllers are named as `dcmppi controllers` lists them, or `package.module:ClassName`,
+imported like `python -m` would: from the current directory first, then the installed packages.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 
 from dcmppi.control.defaults import NOISE_PROFILES
@@ -46,8 +51,31 @@ def cmd_tasks(args) -> int:
     return 0
 
 
+def cmd_controllers(args) -> int:
+    from dcmppi.bench.plugins import ENTRY_POINT_GROUP, entry_points
+    from dcmppi.control import controller_names
+    from dcmppi.control.agents import agent_class, agent_names
+    from dcmppi.control.controllers import controller_class
+
+    print("controllers (--controller NAME, or package.module:ClassName for your own class):")
+    for name in controller_names():
+        print(f"  {name:12s} built-in: {_summary(controller_class(name))}")
+    for name, ep in sorted(entry_points().items()):
+        if name not in controller_names():
+            dist = f", from {ep.dist.name} {ep.dist.version}" if ep.dist else ""
+            print(f"  {name:12s} entry point {ep.value} ({ENTRY_POINT_GROUP}{dist})")
+    print("agents (--task-param agent=NAME):")
+    for name in agent_names():
+        print(f"  {name:12s} {_summary(agent_class(name))}")
+    return 0
+
+
+def _summary(cls) -> str:
+    return (cls.__doc__ or cls.__name__).strip().splitlines()[0]
+
+
 def cmd_run(args) -> int:
-    from dcmppi.bench.runner import EpisodeSpec, run_episode
+    from dcmppi.bench.runner import EpisodeSpec, check_specs, run_episode
 
     spec = EpisodeSpec(
         task=args.task,
@@ -57,7 +85,7 @@ def cmd_run(args) -> int:
         task_params=_key_values(args.task_param, "--task-param"),
         controller_params=_key_values(args.param, "--param"),
     )
-    _check_names(spec.task, spec.controller)
+    check_specs([spec])
     if args.video:
         from dcmppi.bench.runner import Episode
         from dcmppi.render.recording import record_episode
@@ -91,23 +119,24 @@ def cmd_run(args) -> int:
 
 
 def cmd_compare(args) -> int:
-    from dcmppi.bench.runner import Episode, EpisodeSpec
+    from dcmppi.bench.runner import Episode, EpisodeSpec, check_specs
     from dcmppi.render.recording import compare
 
     controllers = _csv(args.controllers)
-    specs = []
-    for controller in controllers:
-        _check_names(args.task, controller)
-        specs.append(
-            EpisodeSpec(
-                task=args.task,
-                controller=controller,
-                noise=args.noise,
-                seed=args.seed,
-                task_params=_key_values(args.task_param, "--task-param"),
-                controller_params=_key_values(args.param, "--param"),
-            )
+    if not controllers:
+        raise ValueError("--controllers needs at least one controller name")
+    specs = [
+        EpisodeSpec(
+            task=args.task,
+            controller=controller,
+            noise=args.noise,
+            seed=args.seed,
+            task_params=_key_values(args.task_param, "--task-param"),
+            shared_params=_key_values(args.param, "--param"),
         )
+        for controller in controllers
+    ]
+    check_specs(specs)
     results = compare(
         [Episode(spec) for spec in specs], args.video, camera=args.camera, height=args.height
     )
@@ -121,71 +150,72 @@ def cmd_compare(args) -> int:
 
 
 def cmd_figure(args) -> int:
-    from dcmppi.bench.runner import EpisodeSpec
+    import dataclasses
+
+    import numpy as np
+
+    from dcmppi.bench.runner import EpisodeSpec, check_specs
     from dcmppi.bench.snapshot import first_step
     from dcmppi.render.figures import write_figures
 
     controllers = _csv(args.controllers)
     if not controllers:
         raise ValueError("--controllers needs at least one controller name")
-    for controller in controllers:
-        _check_names(args.task, controller)
     spec = EpisodeSpec(
         task=args.task,
         controller=controllers[0],
         noise="none",
         seed=args.seed,
         task_params=_key_values(args.task_param, "--task-param"),
-        controller_params=_key_values(args.param, "--param"),
+        shared_params=_key_values(args.param, "--param"),
     )
+    check_specs([dataclasses.replace(spec, controller=c) for c in controllers])
     observation, runs, _ = first_step(spec, controllers)
     result = write_figures(observation, runs, args.out, f"{spec.task}, seed {spec.seed}")
     for name, action in result["actions"].items():
-        print(f"{name:10s} applies {', '.join(f'{a:+.4f}' for a in action)}")
+        controls = ", ".join(f"{u:+.4f}" for u in np.atleast_1d(action))
+        print(f"{name:10s} applies u = ({controls})")
     print("wrote " + ", ".join(result["files"]), file=sys.stderr)
     return 0
 
 
 def cmd_bench(args) -> int:
-    import dataclasses
+    import time
     from pathlib import Path
 
-    from dcmppi.bench.execution import run_all
-    from dcmppi.bench.experiments import get_experiment
-    from dcmppi.bench.report import table
+    from dcmppi.bench.execution import run_experiment
+    from dcmppi.bench.experiments import load_experiment
     from dcmppi.bench.results import ResultsDB
+    from dcmppi.bench.runner import check_specs
 
-    exp = get_experiment(args.experiment, args.episodes, _csv(args.controllers), _csv(args.noise))
-    exp = dataclasses.replace(
-        exp,
-        task_params={**exp.task_params, **_key_values(args.task_param, "--task-param")},
-        controller_params={**exp.controller_params, **_key_values(args.param, "--param")},
+    exp = load_experiment(args.experiment).select(
+        args.episodes, _csv(args.controllers), _csv(args.noise)
+    )
+    exp = exp.with_params(
+        _key_values(args.task_param, "--task-param"), _key_values(args.param, "--param")
     )
     if args.workers < 1:
         raise ValueError(f"--workers must be >= 1, got {args.workers}")
     specs = exp.specs()
-    _check_specs(specs)
+    try:
+        check_specs([spec for _, spec in specs])
+    except ValueError as e:
+        raise ValueError(f"experiment {exp.name}: {e}") from e
     db_path = Path(args.db or f"results/{exp.name}.db")
     db_path.parent.mkdir(parents=True, exist_ok=True)
     db = ResultsDB(db_path, exp.config())
-    done = db.done()
-    todo = [(key, spec) for key, spec in specs if key not in done]
+    wanted = {key for key, _ in specs}
+    before = len(db.done() & wanted)
     print(
         f"{exp.name}: {len(specs)} episodes ({exp.episodes} environments x "
-        f"{len(exp.noises)} noise x {len(exp.controllers)} controllers), "
-        f"{len(specs) - len(todo)} already in {db_path}, {len(todo)} to run "
-        f"on {args.workers} {args.executor} worker(s)",
+        f"{len(exp.noises)} noise x {len(exp.labels)} rows), {before} already in {db_path}, "
+        f"{len(specs) - before} to run on {args.workers} {args.executor} worker(s)",
         file=sys.stderr,
     )
+    start = time.monotonic()
     try:
-        run_all(
-            todo,
-            db,
-            args.workers,
-            args.executor,
-            args.ray_address,
-            exp.name,
-            progress=not args.no_progress,
+        bar = run_experiment(
+            exp, db, args.workers, args.executor, args.ray_address, not args.no_progress
         )
     except KeyboardInterrupt:
         print(
@@ -194,37 +224,25 @@ def cmd_bench(args) -> int:
         )
         return 130
     finally:
-        rows = db.rows()
+        rows = [r for r in db.rows() if (r["noise"], r["label"], r["env_index"]) in wanted]
         db.close()
-    wanted = {key for key, _ in specs}
-    rows = [r for r in rows if (r["noise"], r["controller"], r["env_index"]) in wanted]
-    print(table(rows, exp.name))
     errors = [r for r in rows if r["status"] == "error"]
+    print(
+        f"{exp.name}: {len(rows) - len(errors)} of {len(specs)} episodes in {db_path}; this run "
+        f"{bar.done} episodes, {bar.failures} failed, {bar.errors} errors, "
+        f"{time.monotonic() - start:.0f} s\n"
+        f"the table: dcmppi report --db {db_path} --out report"
+    )
     if errors:
         first = errors[0]
         print(
-            f"{len(errors)} episode(s) raised errors, e.g. {first['controller']} "
+            f"{len(errors)} episode(s) raised errors, e.g. {first['label']} "
             f"{first['noise']} environment {first['env_index']}: {first['error']}\n"
             f"they are recorded as errors in {db_path}; fix the cause and rerun to run them again",
             file=sys.stderr,
         )
         return 1
     return 0
-
-
-def _check_specs(specs) -> None:
-    """Build the environment and every controller of the first episodes before recording
-    anything, so a bad parameter or a missing dependency fails here with its message instead
-    of as one error row per episode."""
-    from dcmppi.bench.runner import make_controller, make_env
-
-    first = {}
-    for _, spec in specs:
-        first.setdefault(spec.controller, spec)
-    for i, spec in enumerate(first.values()):
-        make_controller(spec)
-        if i == 0:
-            make_env(spec).close()
 
 
 def cmd_report(args) -> int:
@@ -235,99 +253,116 @@ def cmd_report(args) -> int:
     return 0
 
 
-def _check_names(task: str, controller: str) -> None:
-    from dcmppi import controller_names
+class _Help(argparse.ArgumentDefaultsHelpFormatter):
+    """Shows an option's default unless it is None or False or the help gives it."""
+
+    def _get_help_string(self, action):
+        if action.default in (None, False) or "default" in (action.help or ""):
+            return action.help
+        return super()._get_help_string(action)
+
+
+def _choices() -> dict[str, str]:
+    """The names --help lists: tasks, controllers (built-in and installed), agents, noise
+    profiles, experiments."""
+    from dcmppi.bench.experiments import experiment_names
+    from dcmppi.bench.plugins import controller_names
+    from dcmppi.control.agents import agent_names
     from dcmppi.tasks import TASKS
 
-    if task not in TASKS:
-        raise ValueError(f"unknown task {task!r}; valid: {', '.join(TASKS)}")
-    if controller not in controller_names():
-        raise ValueError(
-            f"unknown controller {controller!r}; valid: {', '.join(controller_names())}"
-        )
+    return {
+        "tasks": ", ".join(TASKS),
+        "controllers": ", ".join(controller_names()) + ", or package.module:ClassName",
+        "agents": ", ".join(agent_names()),
+        "noises": ", ".join(NOISE_PROFILES),
+        "experiments": ", ".join(experiment_names()) + ", or the path of a .toml file",
+    }
 
 
 def build_parser() -> argparse.ArgumentParser:
+    c = _choices()
     parser = argparse.ArgumentParser(
         prog="dcmppi", description="MPPI / Clustered / DC / Tube-MPPI benchmark on MuJoCo tasks."
     )
     sub = parser.add_subparsers(dest="command", required=True)
 
-    p = sub.add_parser("tasks", help="list the tasks")
-    p.set_defaults(func=cmd_tasks)
+    def command(name, text, func):
+        p = sub.add_parser(
+            name,
+            help=text,
+            description=text,
+            formatter_class=_Help,
+        )
+        p.set_defaults(func=func)
+        return p
 
-    p = sub.add_parser("run", help="run one episode and print its outcome")
-    p.add_argument("--task", required=True)
-    p.add_argument("--controller", required=True)
-    p.add_argument("--noise", default="none", choices=NOISE_PROFILES)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument(
-        "--param",
-        action="append",
-        metavar="NAME=VALUE",
-        help="controller parameter, e.g. --param K=1000 (repeatable)",
+    def params(p, controller_help, task_help):
+        p.add_argument("--param", action="append", metavar="NAME=VALUE", help=controller_help)
+        p.add_argument("--task-param", action="append", metavar="NAME=VALUE", help=task_help)
+
+    task_param = (
+        f"task parameter (repeatable), e.g. agent=NAME (agents: {c['agents']}) or time_limit=60"
     )
-    p.add_argument(
-        "--task-param",
-        action="append",
-        metavar="NAME=VALUE",
-        help="task parameter, e.g. --task-param world=12 (repeatable)",
-    )
+    shared = "parameter for every controller that takes it (repeatable)"
+
+    command("tasks", "list the tasks", cmd_tasks)
+    command("controllers", "list the controllers (built-in, installed) and agents", cmd_controllers)
+
+    p = command("run", "run one episode and print its outcome", cmd_run)
+    p.add_argument("--task", required=True, help=f"one of {c['tasks']}")
+    p.add_argument("--controller", required=True, help=f"one of {c['controllers']}")
+    p.add_argument("--noise", default="none", help=f"noise profile: {c['noises']}")
+    p.add_argument("--seed", type=int, default=0, help="environment seed")
+    params(p, "controller parameter, e.g. K=1000 (repeatable)", task_param)
     p.add_argument("--video", metavar="PATH", help="also render the episode to PATH (.mp4 or .gif)")
-    p.add_argument("--camera", default="top", choices=("top", "chase"))
+    p.add_argument("--camera", default="top", choices=("top", "chase"), help="video camera")
     p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(func=cmd_run)
 
-    p = sub.add_parser("compare", help="one episode under several controllers, side by side")
-    p.add_argument("--task", required=True)
-    p.add_argument("--controllers", default="mppi,clustered,dc")
-    p.add_argument("--noise", default="none", choices=NOISE_PROFILES)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--param", action="append", metavar="NAME=VALUE")
-    p.add_argument("--task-param", action="append", metavar="NAME=VALUE")
+    p = command("compare", "one episode under several controllers, side by side", cmd_compare)
+    p.add_argument("--task", required=True, help=f"one of {c['tasks']}")
+    p.add_argument(
+        "--controllers", default="mppi,clustered,dc", help=f"comma-separated: {c['controllers']}"
+    )
+    p.add_argument("--noise", default="none", help=f"noise profile: {c['noises']}")
+    p.add_argument("--seed", type=int, default=0, help="environment seed")
+    params(p, shared, task_param)
     p.add_argument("--video", required=True, metavar="PATH", help=".mp4 or .gif")
-    p.add_argument("--camera", default="top", choices=("top", "chase"))
+    p.add_argument("--camera", default="top", choices=("top", "chase"), help="video camera")
     p.add_argument("--height", type=int, default=480, help="tile height in pixels")
-    p.set_defaults(func=cmd_compare)
 
-    p = sub.add_parser("figure", help="value and rollout figures of one step (paper Fig. 2, 4)")
-    p.add_argument("--task", default="crossing")
-    p.add_argument("--controllers", default="mppi,clustered,dc")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--param", action="append", metavar="NAME=VALUE")
-    p.add_argument("--task-param", action="append", metavar="NAME=VALUE")
-    p.add_argument("--out", default="figures")
-    p.set_defaults(func=cmd_figure)
+    p = command("figure", "value and rollout figures of one step (paper Fig. 2, 4)", cmd_figure)
+    p.add_argument("--task", default="crossing", help=f"one of {c['tasks']}")
+    p.add_argument(
+        "--controllers", default="mppi,clustered,dc", help=f"comma-separated: {c['controllers']}"
+    )
+    p.add_argument("--seed", type=int, default=0, help="environment seed")
+    params(p, shared, task_param)
+    p.add_argument("--out", default="figures", help="output directory")
 
-    p = sub.add_parser("bench", help="run an experiment into a results database (resumable)")
-    p.add_argument("--experiment", default="static", help="static | dynamic")
-    p.add_argument("--episodes", type=int, help="environments (default: the paper's count)")
-    p.add_argument("--controllers", help="comma-separated subset, e.g. mppi,clustered")
-    p.add_argument("--noise", help="comma-separated noise profiles: none,control,process")
-    p.add_argument("--workers", type=int, default=1)
-    p.add_argument("--executor", default="local", choices=("local", "ray"))
+    p = command("bench", "run an experiment into a results database (resumable)", cmd_bench)
+    p.add_argument("--experiment", default="static", help=f"one of {c['experiments']}")
+    p.add_argument("--episodes", type=int, help="environments (default: the experiment's)")
+    p.add_argument(
+        "--controllers",
+        help="comma-separated row labels (default: every row of the experiment), or "
+        f"controllers for rows of their own: {c['controllers']}",
+    )
+    p.add_argument(
+        "--noise", help=f"comma-separated noise profiles (default: the experiment's): {c['noises']}"
+    )
+    p.add_argument("--workers", type=int, default=1, help="episodes at a time")
+    p.add_argument(
+        "--executor", default="local", choices=("local", "ray"), help="process pool or Ray"
+    )
     p.add_argument("--ray-address", help="address of an existing Ray cluster")
-    p.add_argument(
-        "--param",
-        action="append",
-        metavar="NAME=VALUE",
-        help="controller parameter for every controller (part of the configuration)",
-    )
-    p.add_argument(
-        "--task-param",
-        action="append",
-        metavar="NAME=VALUE",
-        help="task parameter (part of the configuration)",
-    )
-    p.add_argument("--db", help="SQLite results file (default results/EXPERIMENT.db)")
-    p.add_argument("--no-progress", action="store_true")
-    p.set_defaults(func=cmd_bench)
+    params(p, f"{shared}; part of the configuration", f"{task_param}; part of the configuration")
+    p.add_argument("--db", help="SQLite results file (default: results/EXPERIMENT.db)")
+    p.add_argument("--no-progress", action="store_true", help="no progress line")
 
-    p = sub.add_parser("report", help="tables, CSV and plots of a results database")
-    p.add_argument("--db", default="results/static.db")
-    p.add_argument("--out", default="report")
-    p.add_argument("--no-plots", action="store_true")
-    p.set_defaults(func=cmd_report)
+    p = command("report", "tables, CSV and plots of a results database", cmd_report)
+    p.add_argument("--db", default="results/static.db", help="SQLite results file")
+    p.add_argument("--out", default="report", help="output directory")
+    p.add_argument("--no-plots", action="store_true", help="tables and CSV only")
 
     # `timing` parses its own options (dcmppi.bench.timing.main); listed here for --help.
     sub.add_parser("timing", help="controller ms per step on fixed problems (--json, --steps)")
@@ -336,6 +371,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
+    if os.getcwd() not in sys.path:  # package.module:ClassName from here, as with python -m
+        sys.path.insert(0, os.getcwd())
     if argv[:1] == ["timing"]:
         from dcmppi.bench import timing
 

@@ -12,19 +12,21 @@ import subprocess
 import sys
 import time
 
+import numpy as np
 import pytest
 
 from dcmppi import cli
-from dcmppi.bench.execution import run_all
-from dcmppi.bench.experiments import EXPERIMENTS
+from dcmppi.bench.execution import run_all, run_experiment
+from dcmppi.bench.experiments import load_experiment
 from dcmppi.bench.report import write_report
 from dcmppi.bench.results import ResultsDB
-from dcmppi.bench.runner import EpisodeSpec, run_episode
+from dcmppi.bench.runner import Episode, EpisodeSpec, run_episode
 from dcmppi.bench.stats import summarize
 
 SMALL = {"K": 32, "N": 20}
 DETERMINISTIC = (
     "noise",
+    "label",
     "controller",
     "env_index",
     "seed",
@@ -36,19 +38,18 @@ DETERMINISTIC = (
     "time_to_goal",
     "path_length",
     "min_clearance",
+    "ess_mean",
+    "clusters_mean",
+    "fallback_share",
+    "tube_deviation_p95",
     "params",
 )
 
 
-def tiny(episodes=2, controllers=("mppi", "clustered"), noises=("none", "control")):
-    return dataclasses.replace(
-        EXPERIMENTS["static"],
-        task="blocked",
-        episodes=episodes,
-        controllers=controllers,
-        noises=noises,
-        controller_params=SMALL,
-    )
+def tiny(episodes=2, rows=("mppi", "clustered"), noises=("none", "control")):
+    """The static experiment's rows on the small `blocked` task."""
+    exp = dataclasses.replace(load_experiment("static"), task="blocked", controller_params=SMALL)
+    return exp.select(episodes, rows, noises)
 
 
 def deterministic(rows):
@@ -57,7 +58,7 @@ def deterministic(rows):
 
 def run_into(path, exp, **kwargs):
     db = ResultsDB(path, exp.config())
-    run_all(exp.specs(), db, progress=False, **kwargs)
+    run_experiment(exp, db, progress=False, **kwargs)
     rows = db.rows()
     db.close()
     return rows
@@ -73,24 +74,30 @@ def test_episode_is_reproducible_and_paired():
     assert (other["path"][0] == a["path"][0]).all()
 
 
+# a user's controller (tests/user_controllers.py): workers import it by name
+USER_ROWS = ("mppi", "clustered", "user_controllers:Straight")
+
+
 def test_one_and_two_workers_give_identical_rows(tmp_path):
-    exp = tiny()
+    exp = tiny(rows=USER_ROWS)
     one = run_into(tmp_path / "one.db", exp, workers=1)
     two = run_into(tmp_path / "two.db", exp, workers=2)
-    assert len(one) == len(exp.specs()) == 8
+    assert len(one) == len(exp.specs()) == 12
+    assert all(r["status"] == "ok" for r in one)
     assert deterministic(one) == deterministic(two)
 
 
 def test_ray_executor_matches_local(tmp_path):
     pytest.importorskip("ray")
-    exp = tiny(episodes=1, noises=("control",))
+    exp = tiny(episodes=1, rows=USER_ROWS, noises=("control",))
     local = run_into(tmp_path / "local.db", exp, workers=1)
     remote = run_into(tmp_path / "ray.db", exp, workers=2, executor="ray")
+    assert all(r["status"] == "ok" for r in remote)
     assert deterministic(local) == deterministic(remote)
 
 
 def test_erroring_episode_is_recorded_and_the_run_goes_on(tmp_path):
-    exp = tiny(episodes=1, controllers=("mppi",), noises=("none",))
+    exp = tiny(episodes=1, rows=("mppi",), noises=("none",))
     ((key, good),) = exp.specs()
     bad = dataclasses.replace(good, controller_params={**SMALL, "lambda_": -1.0})
     db = ResultsDB(tmp_path / "e.db", exp.config())
@@ -157,7 +164,7 @@ def test_bench_resumes_after_kill_or_ctrl_c_without_loss_or_duplicates(tmp_path,
 
 
 def test_report_numbers_match_the_rows(tmp_path):
-    exp = tiny(episodes=2, controllers=("mppi", "clustered"), noises=("none",))
+    exp = tiny(episodes=2, rows=("mppi", "clustered"), noises=("none",))
     rows = run_into(tmp_path / "r.db", exp, workers=1)
     text = write_report(tmp_path / "r.db", tmp_path / "out", plots=True)
     s = summarize(rows)
@@ -167,7 +174,7 @@ def test_report_numbers_match_the_rows(tmp_path):
         assert f"{s[('none', c)]['failure_pct']:.1f} [" in line
     report = (tmp_path / "out" / "report.md").read_text()
     for c in ("mppi", "clustered"):
-        ok = [r for r in rows if r["controller"] == c]
+        ok = [r for r in rows if r["label"] == c]
         steps = sum(r["steps"] for r in ok) / len(ok)
         assert f"| {c} | {len(ok)} | {steps:.0f} |" in report  # the time-per-episode table
     csv_rows = (tmp_path / "out" / "episodes.csv").read_text().strip().splitlines()
@@ -208,3 +215,81 @@ def test_unreadable_database_is_refused_by_the_cli(tmp_path, capsys):
     junk.write_bytes(os.urandom(4096))
     assert cli.main(["report", "--db", str(junk), "--out", str(tmp_path / "o")]) == 2
     assert "not a readable dcmppi results database" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("controller", ["mppi", "clustered", "tube"])
+def test_episode_diagnostics_match_the_controllers_records(controller):
+    spec = EpisodeSpec(
+        "blocked",
+        controller,
+        "control",
+        seed=4,
+        task_params={"time_limit": 12.0},
+        controller_params=SMALL,
+    )
+    episode = Episode(spec)
+    ess, clusters, fallback, deviation = [], [], [], []
+    while not episode.done:
+        state = episode.time_step.observation["robot_pose"].copy()
+        nominal = getattr(episode.controller, "nominal", None)  # tube: propagated last step
+        episode.step()
+        d = episode.controller.diagnostics
+        ess.append(1.0 / np.sum(d.weights**2))
+        if d.labels is not None:
+            clusters.append(int(d.labels.max()) + 1)
+            fallback.append(d.chosen == -1)
+        if d.nominal_state is not None:  # the tracking error before the reset decision
+            deviation.append(0.0 if nominal is None else np.linalg.norm(state[:2] - nominal[:2]))
+    result = episode.result()
+    assert result["ess_mean"] == pytest.approx(np.mean(ess))
+    if controller == "clustered":
+        assert result["clusters_mean"] == pytest.approx(np.mean(clusters))
+        assert result["fallback_share"] == pytest.approx(np.mean(fallback))
+    else:
+        assert result["clusters_mean"] is None and result["fallback_share"] is None
+    if controller == "tube":
+        assert result["tube_deviation_p95"] == pytest.approx(np.percentile(deviation, 95))
+        assert max(deviation) > 0  # the noise pushes the robot off its nominal state
+    else:
+        assert result["tube_deviation_p95"] is None
+
+
+def test_bench_prints_a_summary_and_report_the_tables(tmp_path, capsys):
+    db, out = tmp_path / "s.db", tmp_path / "report"
+    argv = ["bench", "--experiment", "static", "--episodes", "1", "--noise", "none",
+            "--controllers", "mppi,tube", "--param", "K=32", "--param", "N=20",
+            "--db", str(db), "--no-progress"]  # fmt: skip
+    assert cli.main(argv) == 0
+    printed = capsys.readouterr()
+    assert "|---" not in printed.out + printed.err
+    assert f"2 of 2 episodes in {db}" in printed.out and "dcmppi report --db" in printed.out
+    assert cli.main(["report", "--db", str(db), "--out", str(out), "--no-plots"]) == 0
+    text = capsys.readouterr().out
+    assert "Partial" not in text and "Still being written" not in text
+    main, diagnostics = text.split("\n\n")
+    assert "| none | tube | 1 |" in main and "Collisions vs mppi: McNemar" in main
+    tube = next(line for line in diagnostics.splitlines() if "| tube |" in line)
+    assert tube.endswith("|") and "| - | - |" in tube  # tube: ESS and deviation, no clusters
+    assert "Tube deviation p95" in (out / "report.md").read_text()
+
+
+def test_every_subcommand_lists_its_choices_and_defaults():
+    from dcmppi import tasks
+    from dcmppi.bench.experiments import experiment_names
+    from dcmppi.control.agents import agent_names
+    from dcmppi.control.defaults import NOISE_PROFILES
+
+    parser = cli.build_parser()
+    subparsers = next(a for a in parser._actions if a.dest == "command").choices
+    wanted = {
+        "run": [*tasks.TASKS, "mppi", "package.module:ClassName", *agent_names(), *NOISE_PROFILES],
+        "compare": [*tasks.TASKS, "dc", *agent_names(), *NOISE_PROFILES],
+        "figure": [*tasks.TASKS, "tube", *agent_names()],
+        "bench": [*experiment_names(), "clustered", *agent_names(), *NOISE_PROFILES, ".toml"],
+        "report": ["results/static.db"],
+    }
+    for name, words in wanted.items():
+        text = " ".join(subparsers[name].format_help().split())
+        assert "(default:" in text, name
+        for word in words:
+            assert word in text, (name, word)

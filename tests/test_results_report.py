@@ -1,22 +1,25 @@
 """Results database and report statistics, on synthetic rows (no simulation)."""
 
 import math
+import os
+import subprocess
 
 import numpy as np
 import pytest
 from scipy import stats
 
+from dcmppi.bench.experiments import load_experiment
 from dcmppi.bench.report import table
 from dcmppi.bench.results import ConfigMismatch, ResultsDB
 from dcmppi.bench.runner import EpisodeSpec
 from dcmppi.bench.stats import mcnemar_exact, paired, summarize, wilson
 
 CONFIG = {
-    "experiment": "static",
     "task": "forest",
     "base_seed": 1,
     "task_params": {},
     "controller_params": {},
+    "rows": {"mppi": {"controller": "mppi", "params": {}}},
 }
 
 
@@ -33,6 +36,10 @@ def _result(outcome, steps=100, ms=1.0):
         "ctrl_ms_p95": ms,
         "env_ms_mean": 0.1,
         "wall_s": 1.0,
+        "ess_mean": 10.0,
+        "clusters_mean": None,
+        "fallback_share": None,
+        "tube_deviation_p95": None,
     }
 
 
@@ -118,19 +125,19 @@ def test_summary_and_table_match_the_rows():
             r = rng.random()
             outcome = "collision" if r < p else ("time_limit" if r < p + 0.01 else "goal")
             res = _result(outcome, steps=int(rng.integers(50, 150)), ms=float(rng.random()))
-            rows.append({**res, "noise": "none", "controller": c, "env_index": i, "status": "ok"})
+            rows.append({**res, "noise": "none", "label": c, "env_index": i, "status": "ok"})
     rows.append(
         {
             **{k: None for k in _result("goal")},
             "noise": "none",
-            "controller": "mppi",
+            "label": "mppi",
             "env_index": 999,
             "status": "error",
         }
     )
     s = summarize(rows)
     for c in ("mppi", "clustered"):
-        ok = [r for r in rows if r["controller"] == c and r["status"] == "ok"]
+        ok = [r for r in rows if r["label"] == c and r["status"] == "ok"]
         assert s[("none", c)]["episodes"] == len(ok) == 200
         assert s[("none", c)]["collisions"] == sum(r["collision"] for r in ok)
         assert s[("none", c)]["failures"] == sum(r["failure"] for r in ok)
@@ -141,11 +148,96 @@ def test_summary_and_table_match_the_rows():
     both = {i: {} for i in range(200)}
     for r in rows:
         if r["status"] == "ok":
-            both[r["env_index"]][r["controller"]] = r["collision"]
+            both[r["env_index"]][r["label"]] = r["collision"]
     assert m["pairs"] == 200
     assert m["only_a"] == sum(v["clustered"] and not v["mppi"] for v in both.values())
     assert m["only_b"] == sum(v["mppi"] and not v["clustered"] for v in both.values())
-    text = table(rows, "static")
+    text = table(rows, load_experiment("static"))
     line = next(row for row in text.splitlines() if "| clustered |" in row)
     assert f"| {s[('none', 'clustered')]['collisions']} (6) |" in line  # ours, then the paper's
     assert f"p = {m['p']:.3g}" in line
+
+
+def test_a_database_of_another_schema_is_refused(tmp_path):
+    import sqlite3
+
+    path = tmp_path / "old.db"
+    with sqlite3.connect(path) as c:
+        c.execute("CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)")
+        c.execute("INSERT INTO meta VALUES ('schema', '1'), ('config', '{}')")
+    for config in (None, CONFIG):
+        with pytest.raises(ValueError, match="results schema '1', this dcmppi writes 2; use a new"):
+            ResultsDB(path, config)
+
+
+def test_new_rows_extend_a_database_changed_rows_are_refused(tmp_path):
+    path = tmp_path / "r.db"
+    ResultsDB(path, CONFIG).close()
+    more = {**CONFIG, "rows": {"tube": {"controller": "tube", "params": {}}}}
+    db = ResultsDB(path, more)  # a new label: added
+    assert set(db.config["rows"]) == {"mppi", "tube"}
+    db.close()
+    assert set(ResultsDB(path).config["rows"]) == {"mppi", "tube"}
+    changed = {**CONFIG, "rows": {"mppi": {"controller": "mppi", "params": {"K": 64}}}}
+    with pytest.raises(ConfigMismatch, match="row 'mppi' differ"):
+        ResultsDB(path, changed)
+    renamed = {**CONFIG, "rows": {"mppi": {"controller": "clustered", "params": {}}}}
+    with pytest.raises(ConfigMismatch, match="row 'mppi' differ"):
+        ResultsDB(path, renamed)
+
+
+def _partial_db(path, writer_pid=None):
+    exp = load_experiment("static").select(3, ("mppi", "clustered"), ("none",))
+    db = ResultsDB(path, exp.config())
+    db.begin_run(exp.to_dict())
+    for label, n in [("mppi", 3), ("clustered", 1)]:
+        for i in range(n):
+            db.record(("none", label, i), _spec(label), _result("goal"))
+    db.record(("none", "clustered", 1), _spec("clustered"), {"error": "PhysicsError: boom"})
+    if writer_pid is None:
+        db.end_run()
+    else:
+        db._set("writer", {**db.writer, "pid": writer_pid})
+    db.close()
+
+
+def test_report_says_when_a_database_is_partial_or_being_written(tmp_path):
+    from dcmppi.bench.report import write_report
+
+    _partial_db(tmp_path / "p.db")
+    text = write_report(tmp_path / "p.db", tmp_path / "out", plots=False)
+    assert "**Partial**: 3 finished episodes per row expected" in text
+    assert "none/mppi 3, none/clustered 1 (+1 errors)" in text
+    assert "Still being written" not in text and "Interrupted" not in text
+    assert "**Partial**" in (tmp_path / "out" / "report.md").read_text()
+
+    _partial_db(tmp_path / "w.db", writer_pid=os.getpid())  # this process: alive
+    text = write_report(tmp_path / "w.db", tmp_path / "out", plots=False)
+    assert "**Still being written** by `dcmppi bench` (pid" in text and "**Partial**" in text
+
+    _partial_db(tmp_path / "k.db", writer_pid=_dead_pid())
+    text = write_report(tmp_path / "k.db", tmp_path / "out", plots=False)
+    assert "**Interrupted**" in text and "rerun it to complete" in text
+
+
+def _dead_pid():
+    proc = subprocess.Popen(["true"])
+    proc.wait()
+    return proc.pid
+
+
+def test_a_complete_database_gets_no_notice(tmp_path):
+    from dcmppi.bench.report import write_report
+
+    exp = load_experiment("static").select(2, ("mppi", "clustered"), ("none",))
+    db = ResultsDB(tmp_path / "c.db", exp.config())
+    db.begin_run(exp.to_dict())
+    for label in ("mppi", "clustered"):
+        for i in range(2):
+            db.record(("none", label, i), _spec(label), _result("collision" if i else "goal"))
+    db.end_run()
+    db.close()
+    text = write_report(tmp_path / "c.db", tmp_path / "out", plots=False)
+    assert not text.startswith("**")
+    line = next(x for x in text.splitlines() if "| clustered |" in x)
+    assert "| 2 | 50.0 | 1 (6) | 50.0 [" in line and "0 vs 0 discordant of 2, p = 1 |" in line

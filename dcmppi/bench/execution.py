@@ -55,6 +55,26 @@ class Progress:
             sys.stderr.flush()
 
 
+def run_experiment(
+    exp,
+    db: ResultsDB,
+    workers: int = 1,
+    executor: str = "local",
+    ray_address: str | None = None,
+    progress: bool = True,
+) -> Progress:
+    """Run the episodes of `exp` (a `dcmppi.bench.experiments.Experiment`) that `db` does not
+    hold yet. The database records the experiment's definition (for reports) and, while the
+    run lasts, that it is being written."""
+    done = db.done()
+    todo = [(key, spec) for key, spec in exp.specs() if key not in done]
+    db.begin_run(exp.to_dict())
+    try:
+        return run_all(todo, db, workers, executor, ray_address, exp.name, progress)
+    finally:
+        db.end_run()
+
+
 def run_all(
     todo: list[tuple[tuple, EpisodeSpec]],
     db: ResultsDB,
@@ -116,14 +136,21 @@ def _ray(todo, workers, address) -> Iterable:
         raise RuntimeError(
             "the ray executor needs Ray: pip install 'dcmppi[ray]' (or use --executor local)"
         ) from e
+    from dcmppi.bench.plugins import import_roots
+
     started = not ray.is_initialized()
     if started:
+        # Ray's workers do not share this process's sys.path: hand them the directories of
+        # package.module:ClassName controllers (on a cluster, the nodes must have them too)
+        roots = import_roots({spec.controller for _, spec in todo})
+        paths = roots + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+        env = {**_SINGLE_THREAD, **({"PYTHONPATH": os.pathsep.join(paths)} if roots else {})}
         kwargs = {"address": address} if address else {"num_cpus": workers}
         ray.init(
             **kwargs,
             include_dashboard=False,
             log_to_driver=False,
-            runtime_env={"env_vars": _SINGLE_THREAD},
+            runtime_env={"env_vars": env},
         )
     remote = ray.remote(max_retries=3, num_cpus=1)(run_safely)
     pending = {}

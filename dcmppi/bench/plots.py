@@ -2,19 +2,20 @@
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
-from dcmppi.bench.stats import controller_order, noise_order, summarize
+from dcmppi.bench.stats import noise_order, row_order, summarize
 from dcmppi.render.draw import COLORS, draw_world, pyplot
 
 
-def report_plots(rows: list[dict], config: dict, out: Path) -> list[str]:
-    """Write failure_rates.png, controller_time.png and paths.png; return their names."""
+def report_plots(rows: list[dict], exp, out: Path) -> list[str]:
+    """Write failure_rates.png, controller_time.png and paths.png; return their names.
+
+    exp: the `dcmppi.bench.experiments.Experiment` of the rows."""
     plt = pyplot()
     stats = summarize(rows)
     noises = sorted({n for n, _ in stats}, key=noise_order)
-    controllers = sorted({c for _, c in stats}, key=controller_order)
+    controllers = row_order({c for _, c in stats}, [row.label for row in exp.rows])
     width = 0.8 / len(controllers)
 
     fig, ax = plt.subplots(figsize=(7, 4))
@@ -31,7 +32,7 @@ def report_plots(rows: list[dict], config: dict, out: Path) -> list[str]:
         ax.bar(xs, ys, width, yerr=err, capsize=3, label=c, color=COLORS.get(c))
     ax.set_xticks(range(len(noises)), noises)
     ax.set_ylabel("failure % (95 % Wilson CI)")
-    ax.set_title(f"{config['experiment']}: failure rate per noise profile")
+    ax.set_title(f"{exp.name}: failure rate per noise profile")
     ax.legend()
     fig.tight_layout()
     fig.savefig(out / "failure_rates.png", dpi=120)
@@ -39,7 +40,7 @@ def report_plots(rows: list[dict], config: dict, out: Path) -> list[str]:
 
     fig, ax = plt.subplots(figsize=(7, 4))
     data = [
-        [r["ctrl_ms_mean"] for r in rows if r["status"] == "ok" and r["controller"] == c]
+        [r["ctrl_ms_mean"] for r in rows if r["status"] == "ok" and r["label"] == c]
         for c in controllers
     ]
     ax.boxplot(data, tick_labels=controllers, showfliers=False)
@@ -51,34 +52,24 @@ def report_plots(rows: list[dict], config: dict, out: Path) -> list[str]:
 
     noise = noises[0]
     index = min(r["env_index"] for r in rows if r["noise"] == noise)
-    plot_paths(config, index, noise, controllers, out / "paths.png")
+    plot_paths(exp, index, noise, controllers, out / "paths.png")
     return ["failure_rates.png", "controller_time.png", "paths.png"]
 
 
-def plot_paths(config: dict, index: int, noise: str, controllers, path: Path) -> None:
-    """Re-run environment `index` under each controller (deterministic) and draw the paths."""
-    from dcmppi.bench.experiments import get_experiment
-    from dcmppi.bench.runner import EpisodeSpec, make_env, run_episode
+def plot_paths(exp, index: int, noise: str, labels, path: Path) -> None:
+    """Re-run environment `index` under each row (deterministic) and draw the paths."""
+    from dcmppi.bench.runner import make_env, run_episode
 
     plt = pyplot()
-    exp = dataclasses.replace(
-        get_experiment(config["experiment"]),
-        base_seed=config["base_seed"],
-        task_params=config["task_params"],
-        controller_params=config["controller_params"],
-    )
-    spec = EpisodeSpec(
-        exp.task, controllers[0], noise, exp.seed(index), exp.task_params, exp.controller_params
-    )
-    obs = make_env(spec).reset().observation
+    obs = make_env(exp.spec(noise, labels[0], index)).reset().observation
     fig, ax = plt.subplots(figsize=(9, 6.5))
     draw_world(ax, obs)
-    for c in controllers:
-        result = run_episode(dataclasses.replace(spec, controller=c), keep_path=True)
+    for c in labels:
+        result = run_episode(exp.spec(noise, c, index), keep_path=True)
         p = result["path"]
         ax.plot(p[:, 0], p[:, 1], color=COLORS.get(c), lw=1.8, label=f"{c}: {result['outcome']}")
     ax.legend(loc="upper right", fontsize=8)
-    ax.set_title(f"{config['experiment']} environment {index}, noise {noise}")
+    ax.set_title(f"{exp.name} environment {index}, noise {noise}")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)

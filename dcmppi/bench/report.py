@@ -1,114 +1,219 @@
-"""Reports of a results database: paper-style tables, CSV, plots.
+"""Reports of a results database: paper-style tables, diagnostics, CSV, plots.
 
-Statistics: failure rates with 95 % Wilson score intervals; paired comparisons of each
-controller against `mppi` on the same environments with McNemar's exact test on
-collisions; the paper's figures beside ours (they count out of 1000 environments).
+Statistics: failure rates with 95 % Wilson score intervals; paired comparisons of each row
+against the experiment's reference row on the same environments with McNemar's exact test on
+collisions; the paper's figures beside ours where the experiment gives them. A database that
+is still being written, or holds fewer episodes for some rows than for others or than the
+experiment asked for, gets a notice with the counts per row.
 """
 
 from __future__ import annotations
 
 import csv
+import dataclasses
+import datetime
+import os
+import socket
 from pathlib import Path
 
-from dcmppi.bench.experiments import PAPER
+from dcmppi.bench.experiments import Experiment, Row
 from dcmppi.bench.results import COLUMN_NAMES, ResultsDB
-from dcmppi.bench.stats import controller_order, fmt, noise_order, paired, summarize
+from dcmppi.bench.stats import fmt, noise_order, paired, per_step, row_order, summarize
 
 
-def table(rows: list[dict], experiment: str) -> str:
-    """The Markdown table in the layout of the paper's Table I."""
+def groups(rows: list[dict], exp: Experiment) -> list[tuple[str, str]]:
+    """(noise, label) of the rows, in the paper's noise order and the experiment's row order."""
+    noises = sorted({r["noise"] for r in rows}, key=noise_order)
+    labels = row_order({r["label"] for r in rows}, [row.label for row in exp.rows])
+    present = {(r["noise"], r["label"]) for r in rows}
+    return [(n, c) for n in noises for c in labels if (n, c) in present]
+
+
+def table(rows: list[dict], exp: Experiment) -> str:
+    """The Markdown table in the layout of the paper's Table I, with goal, left-map and
+    time-limit counts and McNemar against the reference row."""
     stats = summarize(rows)
-    paper = PAPER.get(experiment, {})
-    noises = sorted({k[0] for k in stats}, key=noise_order)
-    lines = [
-        "| Noise | Controller | Episodes | Collisions (paper /1000) | Failure % [95 % CI] "
-        "(paper) | Controller ms/step (paper, MATLAB) | Collisions vs mppi: McNemar |",
-        "|---|---|---:|---:|---|---:|---|",
-    ]
-    for noise in noises:
-        controllers = [c for (n, c) in stats if n == noise]
-        for controller in sorted(controllers, key=controller_order):
-            s = stats[(noise, controller)]
-            p_col, p_fail, p_ms = paper.get((noise, controller), (None, None, None))
-            lo, hi = s["failure_ci_pct"]
-            vs = ""
-            if controller != "mppi" and "mppi" in controllers:
-                m = paired(rows, noise, controller, "mppi")
-                if m:
-                    vs = (
-                        f"{m['only_a']} vs {m['only_b']} discordant of {m['pairs']}, "
-                        f"p = {m['p']:.3g}"
-                    )
-            errors = f" (+{s['errors']} errors)" if s["errors"] else ""
-            lines.append(
-                f"| {noise} | {controller} | {s['episodes']}{errors} | "
-                f"{s['collisions']} ({fmt(p_col)}) | "
-                f"{s['failure_pct']:.1f} [{lo:.1f}, {hi:.1f}] ({fmt(p_fail)}) | "
-                f"{s['ctrl_ms']:.2f} ({fmt(p_ms)}) | {vs} |"
+    ref = exp.reference
+    head = (
+        "| Noise | Row | Episodes | Goal % | Collisions (paper) | Failure % [95 % CI] (paper) "
+        "| Left map | Time limit | Controller ms/step (paper) |"
+    )
+    rule = "|---|---|---:|---:|---:|---|---:|---:|---:|"
+    if ref:
+        head += f" Collisions vs {ref}: McNemar |"
+        rule += "---|"
+    lines = [head, rule]
+    for noise, label in groups(rows, exp):
+        s = stats[(noise, label)]
+        paper = exp.paper(noise, label)
+        lo, hi = s["failure_ci_pct"]
+        errors = f" (+{s['errors']} errors)" if s["errors"] else ""
+        ms = "-" if s["ctrl_ms"] is None else f"{s['ctrl_ms']:.2f}"
+        line = (
+            f"| {noise} | {label} | {s['episodes']}{errors} | {s['goal_pct']:.1f} | "
+            f"{s['collisions']} ({fmt(paper.collisions)}) | "
+            f"{s['failure_pct']:.1f} [{lo:.1f}, {hi:.1f}] ({fmt(paper.failure_pct)}) | "
+            f"{s['left_map']} | {s['time_limit']} | {ms} ({fmt(paper.ms_per_step)}) |"
+        )
+        if ref:
+            m = paired(rows, noise, label, ref) if label != ref else None
+            vs = (
+                f"{m['only_a']} vs {m['only_b']} discordant of {m['pairs']}, p = {m['p']:.3g}"
+                if m
+                else ""
             )
+            line += f" {vs} |"
+        lines.append(line)
     return "\n".join(lines)
 
 
-def speed_table(rows: list[dict]) -> str:
-    """Where an episode's wall time goes, per controller: ms per control step in the
-    controller, in env.step (MuJoCo physics and the task) and elsewhere (environment
-    construction, observation handling, bookkeeping), and seconds per episode."""
+def diagnostics_table(rows: list[dict], exp: Experiment) -> str:
+    """Controller diagnostics per (noise, row): '-' where the controller records none."""
+    stats = summarize(rows)
     lines = [
-        "| Controller | Episodes | Steps/episode | Controller ms/step | env.step ms/step | "
+        "| Noise | Row | ESS per step | Clusters per step | Fallback to Alg. 1 % | "
+        "Tube deviation p95 [m] |",
+        "|---|---|---:|---:|---:|---:|",
+    ]
+    for noise, label in groups(rows, exp):
+        s = stats[(noise, label)]
+        cells = [_num(s["ess"], 1), _num(s["clusters"], 2), _num(s["fallback_pct"], 1)]
+        cells.append(_num(s["tube_deviation_p95"], 3))
+        lines.append(f"| {noise} | {label} | {' | '.join(cells)} |")
+    return "\n".join(lines)
+
+
+def _num(x, digits: int) -> str:
+    return "-" if x is None else f"{x:.{digits}f}"
+
+
+def speed_table(rows: list[dict], exp: Experiment) -> str:
+    """Where an episode's wall time goes, per row: ms per control step in the controller, in
+    env.step (MuJoCo physics and the task) and elsewhere (environment construction,
+    observation handling, diagnostics, bookkeeping), and seconds per episode."""
+    lines = [
+        "| Row | Episodes | Steps/episode | Controller ms/step | env.step ms/step | "
         "Other ms/step | Wall s/episode |",
         "|---|---:|---:|---:|---:|---:|---:|",
     ]
-    controllers = sorted({r["controller"] for r in rows}, key=controller_order)
-    for c in controllers:
-        ok = [r for r in rows if r["controller"] == c and r["status"] == "ok"]
+    for label in row_order({r["label"] for r in rows}, [row.label for row in exp.rows]):
+        ok = [r for r in rows if r["label"] == label and r["status"] == "ok"]
         steps = sum(r["steps"] for r in ok)
         if not steps:
             continue
-        ctrl = sum(r["ctrl_ms_mean"] * r["steps"] for r in ok) / steps
-        env = sum(r["env_ms_mean"] * r["steps"] for r in ok) / steps
+        ctrl, env = per_step(ok, "ctrl_ms_mean"), per_step(ok, "env_ms_mean")
         wall = sum(r["wall_s"] for r in ok)
         other = 1e3 * wall / steps - ctrl - env
         lines.append(
-            f"| {c} | {len(ok)} | {steps / len(ok):.0f} | {ctrl:.3f} | {env:.3f} | "
+            f"| {label} | {len(ok)} | {steps / len(ok):.0f} | {ctrl:.3f} | {env:.3f} | "
             f"{other:.3f} | {wall / len(ok):.2f} |"
         )
     return "\n".join(lines)
 
 
-def write_report(db_path: str | Path, out_dir: str | Path, plots: bool = True) -> str:
-    """Write report.md, episodes.csv and the PNG plots into out_dir; return the table."""
+def notice(rows: list[dict], exp: Experiment, writer: dict | None) -> str:
+    """'' for a complete database; otherwise what is missing, with the counts per row."""
+    lines = []
+    if writer:
+        started = datetime.datetime.fromtimestamp(writer["started"]).strftime("%Y-%m-%d %H:%M")
+        who = f"`dcmppi bench` (pid {writer['pid']} on {writer['host']}, started {started})"
+        if writer["host"] == socket.gethostname() and _alive(writer["pid"]):
+            lines.append(f"**Still being written** by {who}: the figures below are partial.")
+        else:
+            lines.append(f"**Interrupted**: {who} stopped before finishing; rerun it to complete.")
+    wanted = {(n, c) for n in exp.noises for c in exp.labels}
+    counts = {g: [0, 0] for g in wanted}
+    for r in rows:
+        counts.setdefault((r["noise"], r["label"]), [0, 0])[r["status"] != "ok"] += 1
+    expected = max([exp.episodes, *(ok for ok, _ in counts.values())])
+    if any(ok < expected for ok, _ in counts.values()):
+        order = groups([{"noise": n, "label": c} for n, c in counts], exp)
+        shown = ", ".join(
+            f"{n}/{c} {counts[(n, c)][0]}"
+            + (f" (+{counts[(n, c)][1]} errors)" if counts[(n, c)][1] else "")
+            for n, c in order
+        )
+        lines.append(
+            f"**Partial**: {expected} finished episodes per row expected, rows hold "
+            f"(noise/row finished): {shown}. Paired statistics use the environments both rows "
+            "finished."
+        )
+    return "\n\n".join(lines)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def load(db_path: str | Path) -> tuple[list[dict], Experiment, dict | None, dict]:
+    """Rows, the experiment the latest bench run asked for, the writer mark and the
+    configuration the database is bound to."""
     db = ResultsDB(db_path)
-    rows, config = db.rows(), db.config
+    rows, definition, writer, config = db.rows(), db.experiment, db.writer, db.config
     db.close()
-    if not rows:
+    if not rows or definition is None:
         raise ValueError(f"{db_path}: no episodes recorded yet; run `dcmppi bench` first")
+    exp = Experiment.from_dict(definition, f"{db_path} (stored experiment)", resolve=False)
+    older = tuple(  # rows of earlier runs that the latest one did not define
+        Row(label, row["controller"], row["params"])
+        for label, row in config["rows"].items()
+        if label not in {r.label for r in exp.rows}
+    )
+    return rows, dataclasses.replace(exp, rows=exp.rows + older), writer, config
+
+
+def write_report(db_path: str | Path, out_dir: str | Path, plots: bool = True) -> str:
+    """Write report.md, episodes.csv and the PNG plots into out_dir; return the text shown
+    on the terminal (notice, table, diagnostics)."""
+    rows, exp, writer, config = load(db_path)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     with open(out / "episodes.csv", "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=COLUMN_NAMES)
-        writer.writeheader()
-        writer.writerows(rows)
-    text = table(rows, config["experiment"])
+        writer_csv = csv.DictWriter(f, fieldnames=COLUMN_NAMES)
+        writer_csv.writeheader()
+        writer_csv.writerows(rows)
+    warning = notice(rows, exp, writer)
+    text = "\n\n".join(
+        part for part in (warning, table(rows, exp), diagnostics_table(rows, exp)) if part
+    )
+    ref = f"the reference row `{exp.reference}`" if exp.reference else "no reference row"
     md = [
-        f"# dcmppi report: {config['experiment']} experiment ({config['task']})",
+        f"# dcmppi report: {exp.name} ({exp.task})",
         "",
-        text,
+        *([exp.description, ""] if exp.description else []),
+        *([warning, ""] if warning else []),
+        table(rows, exp),
         "",
-        "Failure = collision or time limit. Intervals: 95 % Wilson score. McNemar: exact "
-        "two-sided test on the environments both controllers finished; 'a vs b discordant' "
-        "counts environments where only this controller / only mppi collided. The paper's "
-        "figures count out of 1000 environments and were timed in MATLAB on an i7 laptop.",
+        "Failure = any outcome but the goal (collision, left map, time limit). Intervals: 95 % "
+        f"Wilson score. McNemar: exact two-sided test on collisions against {ref}, over the "
+        "environments both rows finished; 'a vs b discordant' counts environments where only "
+        f"this row / only the reference collided. Paper figures in parentheses. {exp.paper_note}",
         "",
-        f"Configuration: `{config}`",
+        "## Controller diagnostics",
+        "",
+        diagnostics_table(rows, exp),
+        "",
+        "ESS: effective sample size 1 / sum(w^2) of the weights that made the plan, mean over "
+        "steps. Clusters: DBSCAN clusters per step; fallback: share of steps with no cluster, "
+        "where Alg. 1 ran over all samples (clustered and dc only). Tube deviation: the 95th "
+        "percentile over an episode's steps of |real - nominal| position, mean over episodes.",
         "",
         "## Time per episode (wall clock of each worker)",
         "",
-        speed_table(rows),
+        speed_table(rows, exp),
+        "",
+        f"Configuration: `{config}`",
     ]
     if plots:
         from dcmppi.bench import plots as plotting
 
-        for name in plotting.report_plots(rows, config, out):
+        for name in plotting.report_plots(rows, exp, out):
             md += ["", f"![{name}]({name})"]
     (out / "report.md").write_text("\n".join(md) + "\n")
     return text

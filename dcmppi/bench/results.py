@@ -2,24 +2,30 @@
 
 Each row is committed in its own transaction when its episode ends, so killing the run
 (even with SIGKILL) loses at most the episodes still in flight, and a rerun skips the
-rows already there. A database is bound to one experiment configuration; opening it
-with another raises `ConfigMismatch` instead of mixing rows.
+rows already there. A database is bound to one experiment configuration (task, its
+parameters, the shared controller parameters, the base seed and each row's controller and
+parameters); opening it with another raises `ConfigMismatch` instead of mixing rows. A
+configuration with rows of new labels extends it.
 """
 
 from __future__ import annotations
 
 import json
+import os
+import socket
 import sqlite3
+import time
 from pathlib import Path
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
 COLUMNS = (
     # key
     ("noise", "TEXT NOT NULL"),
-    ("controller", "TEXT NOT NULL"),
+    ("label", "TEXT NOT NULL"),  # the experiment's row
     ("env_index", "INTEGER NOT NULL"),
     # what was run
+    ("controller", "TEXT NOT NULL"),
     ("task", "TEXT NOT NULL"),
     ("seed", "INTEGER NOT NULL"),
     ("status", "TEXT NOT NULL"),  # "ok" | "error"
@@ -36,6 +42,11 @@ COLUMNS = (
     ("ctrl_ms_p95", "REAL"),
     ("env_ms_mean", "REAL"),
     ("wall_s", "REAL"),
+    # controller diagnostics (NULL where the controller records none)
+    ("ess_mean", "REAL"),
+    ("clusters_mean", "REAL"),
+    ("fallback_share", "REAL"),
+    ("tube_deviation_p95", "REAL"),
     ("params", "TEXT NOT NULL"),  # JSON of the episode's full parameter set
 )
 COLUMN_NAMES = tuple(name for name, _ in COLUMNS)
@@ -95,9 +106,7 @@ class ResultsDB:
                 raise ValueError(f"{self.path}: empty database, no experiment recorded")
             cols = ", ".join(f"{n} {t}" for n, t in COLUMNS)
             with db:
-                db.execute(
-                    f"CREATE TABLE episodes ({cols}, PRIMARY KEY (noise, controller, env_index))"
-                )
+                db.execute(f"CREATE TABLE episodes ({cols}, PRIMARY KEY (noise, label, env_index))")
                 db.executemany(
                     "INSERT INTO meta VALUES (?, ?)",
                     [("schema", str(SCHEMA_VERSION)), ("config", _canonical(config))],
@@ -109,33 +118,35 @@ class ResultsDB:
                 f"{SCHEMA_VERSION}; use a new --db path"
             )
         self.config = json.loads(stored["config"])
-        if config is not None and _canonical(config) != stored["config"]:
-            raise ConfigMismatch(
-                f"{self.path} holds results of another configuration:\n"
-                f"  in the database: {stored['config']}\n  requested:       {_canonical(config)}\n"
-                "Rows of different configurations are never mixed: pass a new --db path, "
-                "or rerun with the database's parameters to extend it."
-            )
+        self._meta = {k: json.loads(v) for k, v in stored.items() if k not in ("schema", "config")}
+        if config is not None:
+            merged = _merge(self.path, self.config, config)
+            if merged != self.config:
+                self._set("config", merged)
+                self.config = merged
 
     def done(self) -> set[tuple[str, str, int]]:
-        """Keys (noise, controller, env_index) already finished (errored ones run again)."""
-        rows = self._db.execute(
-            "SELECT noise, controller, env_index FROM episodes WHERE status = 'ok'"
-        )
+        """Keys (noise, label, env_index) already finished (errored ones run again)."""
+        rows = self._db.execute("SELECT noise, label, env_index FROM episodes WHERE status = 'ok'")
         return {(n, c, int(i)) for n, c, i in rows}
 
     def record(self, key: tuple[str, str, int], spec, result: dict) -> None:
         """Commit one episode: `result` is `run_episode`'s dict or {"error": message}."""
-        noise, controller, index = key
+        noise, label, index = key
         row = {name: None for name in COLUMN_NAMES}
         row.update(
             noise=noise,
-            controller=controller,
+            label=label,
             env_index=index,
+            controller=spec.controller,
             task=spec.task,
             seed=spec.seed,
             params=_canonical(
-                {"task_params": spec.task_params, "controller_params": spec.controller_params}
+                {
+                    "task_params": spec.task_params,
+                    "controller_params": spec.controller_params,
+                    "shared_params": spec.shared_params,
+                }
             ),
         )
         if "error" in result:
@@ -145,7 +156,7 @@ class ResultsDB:
         marks = ", ".join("?" for _ in COLUMN_NAMES)
         with self._db:  # a finished episode replaces an error row of the same key
             self._db.execute(
-                "DELETE FROM episodes WHERE noise = ? AND controller = ? AND env_index = ? "
+                "DELETE FROM episodes WHERE noise = ? AND label = ? AND env_index = ? "
                 "AND status = 'error'",
                 key,
             )
@@ -157,12 +168,66 @@ class ResultsDB:
     def rows(self) -> list[dict]:
         """All episode rows, ordered by key."""
         cur = self._db.execute(
-            f"SELECT {', '.join(COLUMN_NAMES)} FROM episodes ORDER BY noise, controller, env_index"
+            f"SELECT {', '.join(COLUMN_NAMES)} FROM episodes ORDER BY noise, label, env_index"
         )
         return [dict(zip(COLUMN_NAMES, r, strict=True)) for r in cur]
 
+    @property
+    def experiment(self) -> dict | None:
+        """The definition of the experiment the latest bench run asked for (JSON form of
+        `Experiment.to_dict`): names, selected rows, counts, the paper's figures."""
+        return self._meta.get("experiment")
+
+    @property
+    def writer(self) -> dict | None:
+        """{pid, host, started} of a bench run that is writing, or was killed while writing."""
+        return self._meta.get("writer")
+
+    def begin_run(self, experiment: dict) -> None:
+        """Mark the database as being written by this process, for `experiment`."""
+        self._set("experiment", experiment)
+        self._set(
+            "writer", {"pid": os.getpid(), "host": socket.gethostname(), "started": time.time()}
+        )
+
+    def end_run(self) -> None:
+        """The run stopped (finished or interrupted, its rows committed)."""
+        with self._db:
+            self._db.execute("DELETE FROM meta WHERE key = 'writer'")
+        self._meta.pop("writer", None)
+
+    def _set(self, key: str, value) -> None:
+        with self._db:
+            self._db.execute("INSERT OR REPLACE INTO meta VALUES (?, ?)", (key, _canonical(value)))
+        self._meta[key] = value
+
     def close(self) -> None:
         self._db.close()
+
+
+def _merge(path: Path, stored: dict, requested: dict) -> dict:
+    """The stored configuration extended by the requested one's new rows; ConfigMismatch if
+    anything else differs (rows of another configuration are never mixed)."""
+    rows = dict(stored.get("rows", {}))
+    changed = [
+        k
+        for k in stored.keys() | requested.keys()
+        if k != "rows" and stored.get(k) != requested.get(k)
+    ]
+    changed += [
+        f"row {label!r}"
+        for label, row in requested.get("rows", {}).items()
+        if rows.setdefault(label, row) != row
+    ]
+    if changed:
+        show = sorted(changed)
+        raise ConfigMismatch(
+            f"{path} holds results of another configuration ({', '.join(show)} differ):\n"
+            f"  in the database: {_canonical(stored)}\n  requested:       {_canonical(requested)}\n"
+            "Rows of different configurations are never mixed: pass a new --db path, "
+            "or rerun with the database's parameters to extend it (new row labels may be added)."
+        )
+    return {**stored, "rows": rows}
 
 
 def _canonical(obj) -> str:

@@ -36,35 +36,57 @@ def mcnemar_exact(b: int, c: int) -> float:
 
 
 def summarize(rows: list[dict]) -> dict[tuple[str, str], dict]:
-    """Per (noise, controller): episodes, errors, collisions, failures, CI, ms/step."""
+    """Per (noise, row label): episodes, errors, outcome counts and rates with the failure
+    rate's CI, controller ms/step, and the controller diagnostics (None where not recorded):
+    ESS and clusters per step and the fallback share, each a mean over all steps, and the mean
+    over episodes of Tube-MPPI's 95th-percentile deviation from its nominal state."""
     groups = defaultdict(list)
     for r in rows:
-        groups[(r["noise"], r["controller"])].append(r)
+        groups[(r["noise"], r["label"])].append(r)
     out = {}
     for key, group in groups.items():
         ok = [r for r in group if r["status"] == "ok"]
         n = len(ok)
         failures = sum(r["failure"] for r in ok)
-        steps = sum(r["steps"] for r in ok)
+        goals = sum(r["outcome"] == "goal" for r in ok)
+        devs = [r["tube_deviation_p95"] for r in ok if r["tube_deviation_p95"] is not None]
         out[key] = {
             "episodes": n,
             "errors": len(group) - n,
             "collisions": sum(r["collision"] for r in ok),
+            "goals": goals,
+            "goal_pct": 100 * goals / n if n else math.nan,
+            "left_map": sum(r["outcome"] == "left_map" for r in ok),
+            "time_limit": sum(r["outcome"] == "time_limit" for r in ok),
             "failures": failures,
             "failure_pct": 100 * failures / n if n else math.nan,
             "failure_ci_pct": tuple(100 * x for x in wilson(failures, n)),
-            "ctrl_ms": (sum(r["ctrl_ms_mean"] * r["steps"] for r in ok) / steps)
-            if steps
-            else math.nan,
+            "ctrl_ms": per_step(ok, "ctrl_ms_mean"),
             "goal_time_s": mean([r["time_to_goal"] for r in ok if r["outcome"] == "goal"]),
             "path_m": mean([r["path_length"] for r in ok if r["outcome"] == "goal"]),
+            "ess": per_step(ok, "ess_mean"),
+            "clusters": per_step(ok, "clusters_mean"),
+            "fallback_pct": _pct(per_step(ok, "fallback_share")),
+            "tube_deviation_p95": (sum(devs) / len(devs)) if devs else None,
         }
     return out
 
 
+def per_step(rows: list[dict], column: str) -> float | None:
+    """Mean over all steps of a per-episode mean `column` (weighted by steps); None when no
+    episode recorded it."""
+    have = [r for r in rows if r[column] is not None and r["steps"]]
+    steps = sum(r["steps"] for r in have)
+    return sum(r[column] * r["steps"] for r in have) / steps if steps else None
+
+
+def _pct(x: float | None) -> float | None:
+    return None if x is None else 100 * x
+
+
 def paired(rows: list[dict], noise: str, a: str, b: str) -> dict | None:
-    """McNemar on collisions between controllers a and b over environments both finished."""
-    by = {(r["controller"], r["env_index"]): r for r in rows if r["noise"] == noise}
+    """McNemar on collisions between rows a and b over the environments both finished."""
+    by = {(r["label"], r["env_index"]): r for r in rows if r["noise"] == noise}
     envs = [
         i
         for (c, i), r in by.items()
@@ -98,7 +120,9 @@ def noise_order(noise: str) -> int:
     return NOISE_PROFILES.index(noise) if noise in NOISE_PROFILES else len(NOISE_PROFILES)
 
 
-def controller_order(c: str) -> tuple:
-    """Sort key: mppi, tube, clustered, dc (the paper's rows), then others by name."""
-    order = ("mppi", "tube", "clustered", "dc")
-    return (order.index(c) if c in order else len(order), c)
+def row_order(labels, defined) -> list[str]:
+    """`labels` in the order of the experiment's rows `defined`, others after by name."""
+    defined = list(defined)
+    return sorted(
+        set(labels), key=lambda c: (defined.index(c) if c in defined else len(defined), c)
+    )

@@ -1,0 +1,244 @@
+"""Experiments: TOML files of named rows (a controller with parameters) run as paired episodes.
+
+Environment i of an experiment has one seed, shared by every row and noise profile: the same
+world, the same start and goal, the same noise sequence and the same controller sampling
+stream. That makes every comparison paired. The shipped experiments (static, dynamic,
+dynamic-dubins) are TOML files beside this module; `load_experiment` takes their names or a
+path. The file format: `dcmppi.bench.experiments.schema`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.resources
+import sys
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from dcmppi.bench.experiments.schema import ExperimentError, parse
+from dcmppi.bench.runner import EpisodeSpec
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:
+    import tomli as tomllib
+
+__all__ = [
+    "Experiment",
+    "ExperimentError",
+    "Paper",
+    "Row",
+    "experiment_names",
+    "load_experiment",
+]
+
+
+class Paper(NamedTuple):
+    """The paper's figures of one (noise, row); None where it gives none."""
+
+    collisions: int | None = None
+    failure_pct: float | None = None
+    ms_per_step: float | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class Row:
+    """A row of the table: `label`, the `controller` name, its own `params` and the paper's
+    figures per noise profile, {noise: {"collisions", "failure_pct", "ms_per_step"}}."""
+
+    label: str
+    controller: str
+    params: dict = dataclasses.field(default_factory=dict)
+    paper: dict = dataclasses.field(default_factory=dict)
+
+
+@dataclasses.dataclass(frozen=True)
+class Experiment:
+    """An experiment: task, rows, noise profiles, environment count, parameters.
+
+    `task`, `task_params`, `controller_params` (shared by every row), `base_seed` and each
+    row's controller and params are what a results database is bound to (`config`);
+    `selected` rows, `noises` and `episodes` only choose which of its episodes to run, so a
+    database can be extended with more of them.
+    """
+
+    name: str
+    task: str
+    rows: tuple[Row, ...]
+    noises: tuple[str, ...]
+    episodes: int
+    base_seed: int = 0
+    task_params: dict = dataclasses.field(default_factory=dict)
+    controller_params: dict = dataclasses.field(default_factory=dict)
+    reference: str | None = None
+    description: str = ""
+    paper_note: str = ""
+    selected: tuple[str, ...] = ()  # labels to run; () = every row
+
+    @classmethod
+    def from_dict(cls, data: dict, source: str, resolve: bool = True) -> Experiment:
+        """An experiment from its TOML/JSON form (see `schema`); `source` names it in errors."""
+        data = dict(data)
+        selected = tuple(data.pop("selected", ()))
+        args = parse(data, source, resolve)
+        rows = tuple(Row(**row) for row in args.pop("rows"))
+        return cls(**args, rows=rows, selected=selected)
+
+    def to_dict(self) -> dict:
+        """The TOML/JSON form, with the selected labels (what a results database stores)."""
+        return {
+            "name": self.name,
+            "description": self.description,
+            "task": self.task,
+            "noises": list(self.noises),
+            "episodes": self.episodes,
+            "base_seed": self.base_seed,
+            **({"reference": self.reference} if self.reference else {}),
+            "paper_note": self.paper_note,
+            "task_params": self.task_params,
+            "controller_params": self.controller_params,
+            "rows": [dataclasses.asdict(row) for row in self.rows],
+            "selected": list(self.labels),
+        }
+
+    @property
+    def labels(self) -> tuple[str, ...]:
+        """Labels of the rows to run."""
+        return self.selected or tuple(row.label for row in self.rows)
+
+    def row(self, label: str) -> Row:
+        return next(row for row in self.rows if row.label == label)
+
+    def paper(self, noise: str, label: str) -> Paper:
+        """The paper's figures of (noise, row `label`)."""
+        rows = [row for row in self.rows if row.label == label]
+        return Paper(**rows[0].paper.get(noise, {})) if rows else Paper()
+
+    def seed(self, index: int) -> int:
+        """World/noise/controller seed of environment `index` (independent streams)."""
+        return int(np.random.SeedSequence([self.base_seed, index]).generate_state(1)[0])
+
+    def config(self) -> dict:
+        """What a results database is bound to: rows made under another config differ."""
+        return {
+            "task": self.task,
+            "base_seed": self.base_seed,
+            "task_params": self.task_params,
+            "controller_params": self.controller_params,
+            "rows": {r.label: {"controller": r.controller, "params": r.params} for r in self.rows},
+        }
+
+    def spec(self, noise: str, label: str, index: int) -> EpisodeSpec:
+        """The episode of row `label` in environment `index` under `noise`."""
+        row = self.row(label)
+        return EpisodeSpec(
+            task=self.task,
+            controller=row.controller,
+            noise=noise,
+            seed=self.seed(index),
+            task_params=dict(self.task_params),
+            controller_params=dict(row.params),
+            shared_params=dict(self.controller_params),
+        )
+
+    def specs(self) -> list[tuple[tuple[str, str, int], EpisodeSpec]]:
+        """(key, spec) for every selected episode, key = (noise, row label, env_index).
+
+        Ordered by environment first, so a partial run holds complete pairs.
+        """
+        return [
+            ((noise, label, index), self.spec(noise, label, index))
+            for index in range(self.episodes)
+            for noise in self.noises
+            for label in self.labels
+        ]
+
+    def select(
+        self,
+        episodes: int | None = None,
+        rows: tuple[str, ...] | None = None,
+        noises: tuple[str, ...] | None = None,
+    ) -> Experiment:
+        """This experiment restricted or extended (command-line options); bad input raises
+        ValueError. `rows` are labels or, for a row of its own, a controller name."""
+        exp = self
+        if episodes is not None:
+            if episodes < 1:
+                raise ValueError(f"--episodes must be >= 1, got {episodes}")
+            exp = dataclasses.replace(exp, episodes=episodes)
+        if rows is not None:
+            if not rows:
+                raise ValueError("--controllers needs at least one row label or controller")
+            rows = tuple(dict.fromkeys(rows))
+            extra = tuple(_own_row(exp, item) for item in rows if item not in exp._all_labels())
+            exp = dataclasses.replace(exp, rows=exp.rows + extra, selected=rows)
+        if noises is not None:
+            from dcmppi.control.defaults import NOISE_PROFILES
+
+            bad = [n for n in noises if n not in NOISE_PROFILES]
+            if bad or not noises:
+                raise ValueError(
+                    f"unknown noise profile(s) {', '.join(bad) or '(none given)'}; "
+                    f"valid: {', '.join(NOISE_PROFILES)}"
+                )
+            exp = dataclasses.replace(exp, noises=tuple(noises))
+        return exp
+
+    def with_params(self, task_params: dict, controller_params: dict) -> Experiment:
+        """Task and shared controller parameters added from the command line."""
+        return dataclasses.replace(
+            self,
+            task_params={**self.task_params, **task_params},
+            controller_params={**self.controller_params, **controller_params},
+        )
+
+    def _all_labels(self) -> list[str]:
+        return [row.label for row in self.rows]
+
+
+def _own_row(exp: Experiment, item: str) -> Row:
+    """A row of one controller named on the command line, labelled with its name."""
+    from dcmppi.bench.plugins import controller_class
+
+    try:
+        controller_class(item)
+    except ValueError as e:
+        raise ValueError(
+            f"--controllers: {item!r} is no row of {exp.name} ({', '.join(exp._all_labels())}) "
+            f"and {e}"
+        ) from None
+    return Row(label=item, controller=item)
+
+
+def experiment_names() -> list[str]:
+    """The shipped experiments."""
+    files = importlib.resources.files(__name__).iterdir()
+    return sorted(f.name.removesuffix(".toml") for f in files if f.name.endswith(".toml"))
+
+
+def load_experiment(name: str) -> Experiment:
+    """A shipped experiment by name, or a TOML file by path; a malformed file raises an
+    ExperimentError naming the file, the key and the reason."""
+    if name in experiment_names():
+        resource = importlib.resources.files(__name__) / f"{name}.toml"
+        text, source, stem = resource.read_text(), f"{name}.toml (shipped)", name
+    elif name.endswith(".toml") or Path(name).is_file():
+        path = Path(name)
+        try:
+            text = path.read_text()
+        except OSError as e:
+            raise ValueError(f"{name}: cannot read the experiment file ({e.strerror})") from e
+        source, stem = str(path), path.stem
+    else:
+        raise ValueError(
+            f"unknown experiment {name!r}; valid: {', '.join(experiment_names())}, or the path "
+            "of a .toml file"
+        )
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise ExperimentError(source, "TOML syntax", str(e)) from None
+    exp = Experiment.from_dict(data, source)
+    return exp if exp.name else dataclasses.replace(exp, name=stem)

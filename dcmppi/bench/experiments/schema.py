@@ -1,0 +1,208 @@
+"""The experiment file format (TOML) and its checks: every error names the file, key and reason.
+
+name = "mine"                 # optional, default: the file's stem
+description = "..."           # optional
+task = "forest"               # a dcmppi task (`dcmppi tasks`)
+noises = ["none", "control"]  # optional, default ["none"]
+episodes = 100                # environments, >= 1
+base_seed = 2024              # optional, default 0; environment i's seed: (base_seed, i)
+reference = "mppi"            # optional: the row every other row is compared with (McNemar)
+paper_note = "..."            # optional: where the paper's figures come from
+[task_params]                 # optional: task keyword arguments (agent, time_limit, ...)
+[controller_params]           # optional: shared by every row (each takes those it accepts)
+[[rows]]                      # one or more
+label = "mppi"                # optional, default: controller; unique, no comma
+controller = "mppi"           # built-in, entry point or package.module:ClassName
+params = { K = 1000 }         # optional: this row's own parameters
+paper.none = { collisions = 11, failure_pct = 1.2, ms_per_step = 190 }  # optional, per noise
+"""
+
+from __future__ import annotations
+
+import json
+import numbers
+
+from dcmppi.control.defaults import NOISE_PROFILES
+
+TOP_KEYS = {
+    "name": str,
+    "description": str,
+    "task": str,
+    "noises": list,
+    "episodes": int,
+    "base_seed": int,
+    "reference": str,
+    "paper_note": str,
+    "task_params": dict,
+    "controller_params": dict,
+    "rows": list,
+}
+ROW_KEYS = {"label": str, "controller": str, "params": dict, "paper": dict}
+PAPER_KEYS = {"collisions": int, "failure_pct": float, "ms_per_step": float}
+REQUIRED = ("task", "episodes", "rows")
+RESERVED = {
+    "task_params": {"random": "environment i's seed comes from base_seed", "noise": "use noises"},
+    "controller_params": {"seed": "each episode's controller seed comes from base_seed"},
+    "params": {"seed": "each episode's controller seed comes from base_seed"},
+}
+
+
+class ExperimentError(ValueError):
+    """A malformed experiment: `source: key: reason`."""
+
+    def __init__(self, source: str, key: str, reason: str):
+        super().__init__(f"{source}: {key}: {reason}")
+
+
+def _type_name(kind) -> str:
+    return {str: "a string", int: "an integer", float: "a number", list: "an array"}.get(
+        kind, "a table"
+    )
+
+
+def _typed(source, key, value, kind):
+    if kind is float:
+        ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
+    else:
+        ok = isinstance(value, kind) and not (kind is int and isinstance(value, bool))
+    if not ok:
+        raise ExperimentError(
+            source, key, f"must be {_type_name(kind)}, got {type(value).__name__} {value!r}"
+        )
+    return value
+
+
+def _table(source, key, data, keys, required=()) -> dict:
+    """Check `data` (a table at `key`) against {name: type}; return it."""
+    _typed(source, key or "(top level)", data, dict)
+    unknown = sorted(set(data) - set(keys))
+    if unknown:
+        where = f"{key}." if key else ""
+        raise ExperimentError(
+            source, f"{where}{unknown[0]}", f"unknown key; valid keys: {', '.join(keys)}"
+        )
+    for name in required:
+        if name not in data:
+            raise ExperimentError(source, f"{key}.{name}" if key else name, "missing")
+    for name, value in data.items():
+        _typed(source, f"{key}.{name}" if key else name, value, keys[name])
+    return data
+
+
+def _params(source, key, data, reserved) -> dict:
+    for name, value in data.items():
+        if name in reserved:
+            raise ExperimentError(source, f"{key}.{name}", f"set per episode ({reserved[name]})")
+        try:
+            json.dumps(value, allow_nan=False)
+        except (TypeError, ValueError):
+            raise ExperimentError(
+                source, f"{key}.{name}", f"{value!r} is not a number, string, array or table"
+            ) from None
+    return dict(data)
+
+
+def parse(data: dict, source: str, resolve: bool = True) -> dict:
+    """Check an experiment read from TOML (or stored as JSON) and return the arguments of
+    `Experiment`. resolve=False skips the checks that import tasks and controllers (reading a
+    stored definition back)."""
+    _table(source, "", data, TOP_KEYS, REQUIRED)
+    task = data["task"]
+    name = data.get("name", "")
+    if name and (not name.strip() or "/" in name or "\\" in name):
+        raise ExperimentError(source, "name", f"{name!r}: a name is a word, not a path")
+    if resolve:
+        from dcmppi.tasks import TASKS
+
+        if task not in TASKS:
+            raise ExperimentError(
+                source, "task", f"unknown task {task!r}; valid: {', '.join(TASKS)}"
+            )
+    episodes = data["episodes"]
+    if episodes < 1:
+        raise ExperimentError(source, "episodes", f"must be >= 1, got {episodes}")
+    base_seed = data.get("base_seed", 0)
+    if base_seed < 0:
+        raise ExperimentError(source, "base_seed", f"must be >= 0, got {base_seed}")
+    noises = tuple(data.get("noises", ["none"]))
+    if not noises:
+        raise ExperimentError(source, "noises", "empty; give at least one noise profile")
+    for i, noise in enumerate(noises):
+        if noise not in NOISE_PROFILES:
+            raise ExperimentError(
+                source,
+                f"noises[{i}]",
+                f"unknown noise profile {noise!r}; valid: {', '.join(NOISE_PROFILES)}",
+            )
+    if len(set(noises)) < len(noises):
+        raise ExperimentError(source, "noises", f"repeats a profile: {list(noises)}")
+    if not data["rows"]:
+        raise ExperimentError(source, "rows", "empty; give at least one [[rows]] table")
+    rows = tuple(_row(source, i, row, resolve) for i, row in enumerate(data["rows"]))
+    labels = [row["label"] for row in rows]
+    for i, label in enumerate(labels):
+        if label in labels[:i]:
+            raise ExperimentError(source, f"rows[{i}].label", f"{label!r} is used twice")
+    reference = data.get("reference")
+    if reference is not None and reference not in labels:
+        raise ExperimentError(
+            source, "reference", f"{reference!r} is no row label; labels: {', '.join(labels)}"
+        )
+    return {
+        "name": name,
+        "description": data.get("description", ""),
+        "task": task,
+        "rows": rows,
+        "noises": noises,
+        "episodes": episodes,
+        "base_seed": base_seed,
+        "task_params": _params(
+            source, "task_params", data.get("task_params", {}), RESERVED["task_params"]
+        ),
+        "controller_params": _params(
+            source,
+            "controller_params",
+            data.get("controller_params", {}),
+            RESERVED["controller_params"],
+        ),
+        "reference": reference,
+        "paper_note": data.get("paper_note", ""),
+    }
+
+
+def _row(source, i, data, resolve) -> dict:
+    key = f"rows[{i}]"
+    _table(source, key, data, ROW_KEYS, ("controller",))
+    controller = data["controller"]
+    if resolve:
+        from dcmppi.bench.plugins import controller_class
+
+        try:
+            controller_class(controller)
+        except ValueError as e:
+            raise ExperimentError(source, f"{key}.controller", str(e)) from None
+    label = data.get("label", controller)
+    if not label.strip() or "," in label:
+        raise ExperimentError(
+            source, f"{key}.label", f"{label!r}: labels are non-empty and have no comma"
+        )
+    paper = {}
+    for noise, figures in data.get("paper", {}).items():
+        where = f"{key}.paper.{noise}"
+        if noise not in NOISE_PROFILES:
+            raise ExperimentError(
+                source,
+                where,
+                f"unknown noise profile {noise!r}; valid: {', '.join(NOISE_PROFILES)}",
+            )
+        _table(source, where, figures, PAPER_KEYS)
+        for name, value in figures.items():
+            if value < 0 or (name == "failure_pct" and value > 100):
+                raise ExperimentError(source, f"{where}.{name}", f"out of range: {value}")
+        paper[noise] = dict(figures)
+    return {
+        "label": label,
+        "controller": controller,
+        "params": _params(source, f"{key}.params", data.get("params", {}), RESERVED["params"]),
+        "paper": paper,
+    }

@@ -1,0 +1,142 @@
+"""Experiments as TOML files: the shipped ones, selection, configuration, every malformed file."""
+
+import pytest
+
+from dcmppi.bench.experiments import (
+    ExperimentError,
+    Paper,
+    experiment_names,
+    load_experiment,
+)
+from dcmppi.bench.runner import check_specs
+
+MINIMAL = 'task = "blocked"\nepisodes = 2\n[[rows]]\ncontroller = "mppi"\n'
+
+
+def test_shipped_experiments_hold_the_papers_setup():
+    assert experiment_names() == ["dynamic", "dynamic-dubins", "static"]
+    static = load_experiment("static")
+    assert (static.task, static.episodes, static.base_seed) == ("forest", 1000, 2024)
+    assert static.labels == ("mppi", "tube", "clustered")
+    assert static.noises == ("none", "control", "process")
+    assert static.reference == "mppi"
+    assert static.paper("control", "clustered") == Paper(26, 2.9, 199)
+    assert static.paper("process", "tube") == Paper(49, 5.0, 376)
+    dynamic = load_experiment("dynamic")
+    assert dynamic.task_params == {"agent": "holonomic"}
+    assert dynamic.controller_params == {
+        "perturbation": "mixed",
+        "gamma": 1.0,
+        "beta": 100.0,
+        "Sigma": [1.0, 1.0, 0.1],
+    }
+    assert dynamic.labels == ("mppi", "clustered", "mppi+margin", "clustered+margin", "tube", "dc")
+    assert dynamic.row("clustered+margin").controller == "clustered"
+    assert dynamic.row("clustered+margin").params == {"obstacle_margin": 0.5}
+    assert (dynamic.episodes, dynamic.reference, dynamic.noises) == (300, "dc", ("none",))
+    assert dynamic.paper("none", "dc") == Paper(0, None, 454)
+    assert dynamic.paper("none", "mppi+margin") == Paper()
+    dubins = load_experiment("dynamic-dubins")
+    assert dubins.task_params == {"agent": "dubins"} and dubins.controller_params == {}
+    assert dubins.labels == ("mppi", "clustered", "tube", "dc")
+    assert dubins.paper("none", "clustered") == Paper(2, None, 288)
+
+
+@pytest.mark.parametrize("name", ["static", "dynamic", "dynamic-dubins"])
+def test_every_shipped_row_builds(name):
+    """Each row's controller takes the experiment's parameters with the task's agent."""
+    check_specs([spec for _, spec in load_experiment(name).select(episodes=1).specs()])
+
+
+def test_keys_specs_and_the_configuration():
+    exp = load_experiment("dynamic")
+    small = exp.select(episodes=2, rows=("dc", "mppi+margin"))
+    keys = [key for key, _ in small.specs()]
+    assert keys == [("none", label, i) for i in range(2) for label in ("dc", "mppi+margin")]
+    spec = dict(small.specs())[("none", "mppi+margin", 1)]
+    assert spec.controller == "mppi" and spec.controller_params == {"obstacle_margin": 0.5}
+    assert spec.shared_params == exp.controller_params and spec.seed == exp.seed(1)
+    assert spec.task_params == {"agent": "holonomic"}
+    # what is run does not change what a database is bound to; a parameter does
+    assert small.config() == exp.config()
+    assert set(exp.config()["rows"]) == set(exp.labels)
+    assert exp.with_params({}, {"K": 100}).config() != exp.config()
+
+
+def test_a_controller_named_instead_of_a_label_becomes_a_row_of_its_own():
+    exp = load_experiment("static").select(rows=("clustered", "dc"))
+    assert exp.labels == ("clustered", "dc")
+    assert exp.row("dc").controller == "dc" and exp.row("dc").params == {}
+    assert "dc" in exp.config()["rows"]
+    with pytest.raises(ValueError, match="'fancy' is no row of static .* unknown controller"):
+        load_experiment("static").select(rows=("fancy",))
+
+
+def test_a_file_by_path_takes_its_name_from_the_stem(tmp_path):
+    path = tmp_path / "mine.toml"
+    path.write_text(MINIMAL + 'label = "base"\nparams = { K = 64 }\n')
+    exp = load_experiment(str(path))
+    assert exp.name == "mine" and exp.labels == ("base",) and exp.noises == ("none",)
+    assert exp.base_seed == 0 and exp.row("base").params == {"K": 64}
+    path.write_text('name = "other"\n' + MINIMAL)
+    assert load_experiment(str(path)).name == "other"
+    with pytest.raises(ValueError, match="cannot read"):
+        load_experiment(str(tmp_path / "missing.toml"))
+    with pytest.raises(ValueError, match="unknown experiment 'nope'; valid: dynamic"):
+        load_experiment("nope")
+
+
+@pytest.mark.parametrize(
+    "text, key, reason",
+    [
+        ('task = "blocked\n', "TOML syntax", "line 1"),
+        (MINIMAL + "[extra]\n", "extra", "unknown key; valid keys: name"),
+        (MINIMAL.replace('task = "blocked"\n', ""), "task", "missing"),
+        (MINIMAL.replace("episodes = 2", 'episodes = "two"'), "episodes", "must be an integer"),
+        (MINIMAL.replace("episodes = 2", "episodes = true"), "episodes", "must be an integer"),
+        (MINIMAL.replace("episodes = 2", "episodes = 0"), "episodes", "must be >= 1"),
+        ("base_seed = -1\n" + MINIMAL, "base_seed", "must be >= 0"),
+        (MINIMAL.replace('"blocked"', '"nope"'), "task", "unknown task 'nope'; valid: forest"),
+        ('noises = ["loud"]\n' + MINIMAL, "noises[0]", "unknown noise profile 'loud'"),
+        ("noises = []\n" + MINIMAL, "noises", "empty"),
+        ('noises = ["none", "none"]\n' + MINIMAL, "noises", "repeats a profile"),
+        ("noises = 'none'\n" + MINIMAL, "noises", "must be an array"),
+        ('task = "blocked"\nepisodes = 2\nrows = []\n', "rows", "empty"),
+        ('task = "blocked"\nepisodes = 2\n', "rows", "missing"),
+        ("task_params = 3\n" + MINIMAL, "task_params", "must be a table"),
+        ('task_params = { noise = "control" }\n' + MINIMAL, "task_params.noise", "per episode"),
+        ("controller_params = { seed = 1 }\n" + MINIMAL, "controller_params.seed", "per episode"),
+        (MINIMAL + 'lable = "x"\n', "rows[0].lable", "unknown key; valid keys: label"),
+        (MINIMAL.replace('controller = "mppi"', 'label = "x"'), "rows[0].controller", "missing"),
+        (MINIMAL.replace('"mppi"', '"fancy"'), "rows[0].controller", "unknown controller"),
+        (MINIMAL.replace('"mppi"', '"no_such_mod:C"'), "rows[0].controller", "no module named"),
+        (MINIMAL.replace('"mppi"', "3"), "rows[0].controller", "must be a string"),
+        (MINIMAL + MINIMAL[MINIMAL.index("[[") :], "rows[1].label", "'mppi' is used twice"),
+        (MINIMAL + 'label = "a,b"\n', "rows[0].label", "no comma"),
+        ('reference = "dc"\n' + MINIMAL, "reference", "'dc' is no row label"),
+        (MINIMAL + "params = { seed = 3 }\n", "rows[0].params.seed", "per episode"),
+        (MINIMAL + "params = { when = 1979-05-27 }\n", "rows[0].params.when", "not a number"),
+        (MINIMAL + "paper.loud = { collisions = 1 }\n", "rows[0].paper.loud", "unknown noise"),
+        (MINIMAL + "paper.none = { wins = 1 }\n", "rows[0].paper.none.wins", "unknown key"),
+        (
+            MINIMAL + "paper.none = { collisions = -1 }\n",
+            "rows[0].paper.none.collisions",
+            "out of range",
+        ),
+        (
+            MINIMAL + 'paper.none = { failure_pct = "1" }\n',
+            "rows[0].paper.none.failure_pct",
+            "must be a number",
+        ),
+        ('name = "a/b"\n' + MINIMAL, "name", "not a path"),
+    ],
+)
+def test_a_malformed_file_names_the_file_the_key_and_the_reason(tmp_path, text, key, reason):
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(ExperimentError) as info:
+        load_experiment(str(path))
+    message = str(info.value)
+    assert message.startswith(f"{path}: {key}: ")
+    assert reason in message
+    assert "\n" not in message

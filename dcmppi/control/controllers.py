@@ -135,6 +135,24 @@ def _clip_box(U0, eps, lower, upper):
     return u, e
 
 
+@numba.njit(cache=True)
+def _clip_box_disc(U0, eps, lower, upper, p, q, limit):
+    """As _clip_box, then controls p and q scaled back onto |(u_p, u_q)| <= limit."""
+    u, e = _clip_box(U0, eps, lower, upper)
+    n, _, k = eps.shape
+    for i in range(n):
+        up, uq = u[i, p], u[i, q]
+        for j in range(k):
+            norm = np.sqrt(up[j] * up[j] + uq[j] * uq[j])
+            if norm > limit:
+                scale = limit / max(norm, 1e-300)
+                up[j] *= scale
+                uq[j] *= scale
+                e[i, p, j] = up[j] - U0[i, p]
+                e[i, q, j] = uq[j] - U0[i, q]
+    return u, e
+
+
 def _positive(name, value, integer=False, allow_zero=False):
     ok_type = isinstance(value, numbers.Integral) if integer else isinstance(value, numbers.Real)
     if isinstance(value, bool) or not ok_type or not math.isfinite(value):
@@ -336,9 +354,12 @@ class Controller:
         and the clustering features, so the update U0 + sum_k w_k eps_k stays within the
         bounds (they are convex).
         """
-        if self.agent.norm_axes is None:  # a box: one pass, the same values as np.clip
-            return _clip_box(U0, eps, self.agent.lower, self.agent.upper)
-        u = self.agent.project(U0[:, :, None] + eps)
+        a = self.agent
+        if a.norm_axes is None:  # a box: one pass, the same values as np.clip
+            return _clip_box(U0, eps, a.lower, a.upper)
+        if len(a.norm_axes) == 2:  # box and disc (holonomic): one pass, Agent.project's values
+            return _clip_box_disc(U0, eps, a.lower, a.upper, *a.norm_axes, a.norm_limit)
+        u = a.project(U0[:, :, None] + eps)
         return u, u - U0[:, :, None]
 
     def evaluate(self, x0, u, starts=1):

@@ -137,19 +137,27 @@ def _clip_box(U0, eps, lower, upper):
 
 @numba.njit(cache=True)
 def _clip_box_disc(U0, eps, lower, upper, p, q, limit):
-    """As _clip_box, then controls p and q scaled back onto |(u_p, u_q)| <= limit."""
-    u, e = _clip_box(U0, eps, lower, upper)
-    n, _, k = eps.shape
+    """As _clip_box, then controls p and q scaled back onto |(u_p, u_q)| <= limit; one pass,
+    the scale selected without a branch (1 inside the disc) so the loop vectorises."""
+    n, nu, k = eps.shape
+    u = np.empty((n, nu, k))
+    e = np.empty((n, nu, k))
     for i in range(n):
+        for c in range(nu):
+            u0, lo, hi = U0[i, c], lower[c], upper[c]
+            row, out_u = eps[i, c], u[i, c]
+            for j in range(k):
+                out_u[j] = min(max(u0 + row[j], lo), hi)
         up, uq = u[i, p], u[i, q]
         for j in range(k):
             norm = np.sqrt(up[j] * up[j] + uq[j] * uq[j])
-            if norm > limit:
-                scale = limit / max(norm, 1e-300)
-                up[j] *= scale
-                uq[j] *= scale
-                e[i, p, j] = up[j] - U0[i, p]
-                e[i, q, j] = uq[j] - U0[i, q]
+            scale = limit / max(norm, 1e-300) if norm > limit else 1.0
+            up[j] *= scale
+            uq[j] *= scale
+        for c in range(nu):
+            u0, out_u, out_e = U0[i, c], u[i, c], e[i, c]
+            for j in range(k):
+                out_e[j] = out_u[j] - u0
     return u, e
 
 

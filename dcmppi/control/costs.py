@@ -245,12 +245,7 @@ class TrackIndex:
         width = float(distance.max()) * (1.0 + 1e-9)  # rounding never puts a hit two cells away
         width = width if width > 0 else 1.0
         step_major = np.ascontiguousarray(tracks.transpose(1, 2, 0))  # (N + 1, 2, T)
-        self._index = (
-            step_major,
-            distance * distance,
-            1.0 / width,
-            *_sort_tracks(step_major, 1.0 / width),
-        )
+        self._index = (1.0 / width, *_sort_tracks(step_major, distance * distance, 1.0 / width))
 
     def count(self, x, y):
         """Collisions (R,) int of rollouts x, y (N + 1, R) with the tracks, summed over steps."""
@@ -263,13 +258,14 @@ class TrackIndex:
 
 
 @numba.njit(cache=True)
-def _sort_tracks(tracks, inv):
+def _sort_tracks(tracks, d2, inv):
     """Counting sort of every step's track positions into cells of width 1 / inv.
 
-    tracks: (N + 1, 2, T). Returns the cells' lower corner (N + 1, 2), their counts along x and
-    y (N + 1, 2), each step's offset into `start` (N + 2,), start: per cell the first position
-    of its tracks in `order` (cells of a step plus one end entry, steps concatenated), and
-    order (N + 1, T): the track indices by cell."""
+    tracks: (N + 1, 2, T); d2: (T,) squared collision distances. Returns the cells' lower
+    corner (N + 1, 2), their counts along x and y (N + 1, 2), each step's offset into `start`
+    (N + 2,), start: per cell the first position of its tracks (cells of a step plus one end
+    entry, steps concatenated), and the tracks' x, y and d2 in cell order, (N + 1, T) each, so
+    the tracks of neighbouring cells of one column are one contiguous run."""
     steps, T = tracks.shape[0], tracks.shape[2]
     corner = np.empty((steps, 2))
     shape = np.empty((steps, 2), dtype=np.intp)
@@ -280,7 +276,7 @@ def _sort_tracks(tracks, inv):
         shape[i, 1] = int((tracks[i, 1].max() - corner[i, 1]) * inv) + 1
         offset[i + 1] = offset[i] + shape[i, 0] * shape[i, 1] + 1
     start = np.zeros(offset[steps], dtype=np.intp)
-    order = np.empty((steps, T), dtype=np.intp)
+    sx, sy, sd2 = np.empty((steps, T)), np.empty((steps, T)), np.empty((steps, T))
     cell = np.empty(T, dtype=np.intp)
     for i in range(steps):
         s = start[offset[i] : offset[i + 1]]
@@ -294,32 +290,34 @@ def _sort_tracks(tracks, inv):
             s[c + 1] += s[c]
         slot = s[:-1].copy()
         for t in range(T):
-            order[i, slot[cell[t]]] = t
+            j = slot[cell[t]]
+            sx[i, j], sy[i, j], sd2[i, j] = tracks[i, 0, t], tracks[i, 1, t], d2[t]
             slot[cell[t]] += 1
-    return corner, shape, offset, start, order
+    return corner, shape, offset, start, sx, sy, sd2
 
 
 @numba.njit(cache=True)
-def _count_hits(x, y, tracks, d2, inv, corner, shape, offset, start, order):
-    """(R,) hits of the states x, y (N + 1, R) with the sorted tracks (see _sort_tracks)."""
+def _count_hits(x, y, inv, corner, shape, offset, start, sx, sy, sd2):
+    """(R,) hits of the states x, y (N + 1, R) with the sorted tracks (see _sort_tracks): per
+    state, the runs of tracks in the three columns of cells around its own."""
     steps, R = x.shape
     counts = np.zeros(R, dtype=np.intp)
     for i in range(steps):
-        ox, oy, nx, ny = tracks[i, 0], tracks[i, 1], shape[i, 0], shape[i, 1]
-        s, o = start[offset[i] : offset[i + 1]], order[i]
+        nx, ny = shape[i, 0], shape[i, 1]
+        s = start[offset[i] : offset[i + 1]]
+        ox, oy, od2 = sx[i], sy[i], sd2[i]
         for k in range(R):
             px, py = x[i, k], y[i, k]
             fx, fy = (px - corner[i, 0]) * inv, (py - corner[i, 1]) * inv
             if not (-1.0 <= fx < nx + 1.0 and -1.0 <= fy < ny + 1.0):
                 continue  # no cell within one of the state's
             cx, cy = int(np.floor(fx)), int(np.floor(fy))
+            y0, y1 = max(cy - 1, 0), min(cy + 1, ny - 1)
             hits = 0
             for gx in range(max(cx - 1, 0), min(cx + 2, nx)):
-                for c in range(gx * ny + max(cy - 1, 0), gx * ny + min(cy + 2, ny)):
-                    for j in range(s[c], s[c + 1]):
-                        t = o[j]
-                        dx = px - ox[t]
-                        dy = py - oy[t]
-                        hits += dx * dx + dy * dy <= d2[t]
+                for j in range(s[gx * ny + y0], s[gx * ny + y1 + 1]):
+                    dx = px - ox[j]
+                    dy = py - oy[j]
+                    hits += dx * dx + dy * dy <= od2[j]
             counts[k] += hits
     return counts

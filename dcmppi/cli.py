@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 
 from dcmppi.control.defaults import NOISE_PROFILES
+from dcmppi.render import CAMERAS
 
 # names that other flags set for every episode (a parameter would silently override them)
 _RESERVED = {
@@ -61,8 +63,12 @@ def cmd_run(args) -> int:
     if args.video:
         from dcmppi.bench.runner import Episode
         from dcmppi.render.recording import record_episode
+        from dcmppi.render.video import check_path
 
-        result = record_episode(Episode(spec), args.video, camera=args.camera)
+        check_path(args.video)
+        result = record_episode(
+            Episode(spec), args.video, camera=args.camera, legend=not args.no_legend
+        )
     else:
         result = run_episode(spec)
     if args.json:
@@ -93,7 +99,9 @@ def cmd_run(args) -> int:
 def cmd_compare(args) -> int:
     from dcmppi.bench.runner import Episode, EpisodeSpec
     from dcmppi.render.recording import compare
+    from dcmppi.render.video import check_path
 
+    check_path(args.video)
     controllers = _csv(args.controllers)
     specs = []
     for controller in controllers:
@@ -109,7 +117,12 @@ def cmd_compare(args) -> int:
             )
         )
     results = compare(
-        [Episode(spec) for spec in specs], args.video, camera=args.camera, height=args.height
+        [Episode(spec) for spec in specs],
+        args.video,
+        camera=args.camera,
+        width=args.width,
+        height=args.height,
+        legend=not args.no_legend,
     )
     for spec, result in zip(specs, results, strict=True):
         print(
@@ -247,6 +260,12 @@ def _check_names(task: str, controller: str) -> None:
         )
 
 
+_CAMERA_HELP = (
+    "scene: straight down at the start, the goal and the obstacles between (default); "
+    "top: the whole map; chase: behind the robot"
+)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="dcmppi", description="MPPI / Clustered / DC / Tube-MPPI benchmark on MuJoCo tasks."
@@ -273,8 +292,14 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="NAME=VALUE",
         help="task parameter, e.g. --task-param world=12 (repeatable)",
     )
-    p.add_argument("--video", metavar="PATH", help="also render the episode to PATH (.mp4 or .gif)")
-    p.add_argument("--camera", default="top", choices=("top", "chase"))
+    p.add_argument(
+        "--video",
+        metavar="PATH",
+        help="also render the episode to PATH (.mp4: every frame, 1280x720; .gif: at most 120 "
+        "frames, 480x270)",
+    )
+    p.add_argument("--camera", default="scene", choices=CAMERAS, help=_CAMERA_HELP)
+    p.add_argument("--no-legend", action="store_true", help="no colour legend in the video")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_run)
 
@@ -285,9 +310,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--param", action="append", metavar="NAME=VALUE")
     p.add_argument("--task-param", action="append", metavar="NAME=VALUE")
-    p.add_argument("--video", required=True, metavar="PATH", help=".mp4 or .gif")
-    p.add_argument("--camera", default="top", choices=("top", "chase"))
-    p.add_argument("--height", type=int, default=480, help="tile height in pixels")
+    p.add_argument(
+        "--video",
+        required=True,
+        metavar="PATH",
+        help=".mp4 (every frame) or .gif (at most 120 frames, smaller tiles)",
+    )
+    p.add_argument("--camera", default="scene", choices=CAMERAS, help=_CAMERA_HELP)
+    p.add_argument("--width", type=int, help="tile width in pixels (default 640, GIF 320)")
+    p.add_argument("--height", type=int, help="tile height in pixels (default 480, GIF 240)")
+    p.add_argument("--no-legend", action="store_true", help="no colour legend in the video")
     p.set_defaults(func=cmd_compare)
 
     p = sub.add_parser("figure", help="value and rollout figures of one step (paper Fig. 2, 4)")
@@ -336,6 +368,23 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
+    try:
+        try:
+            return _main(argv)
+        finally:
+            sys.stdout.flush()  # a reader that has gone shows here, not at exit
+    except BrokenPipeError:
+        # The reader left (`dcmppi tasks | head -1`): stop quietly, like a command killed by
+        # SIGPIPE, and point stdout at /dev/null so that the exit's flush has nowhere to fail.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
+    except KeyboardInterrupt as e:
+        command = f"dcmppi {argv[0]}" if argv else "dcmppi"
+        print(f"{command}: interrupted" + (f"; {e}" if str(e) else ""), file=sys.stderr)
+        return 130
+
+
+def _main(argv: list[str]) -> int:
     if argv[:1] == ["timing"]:
         from dcmppi.bench import timing
 
@@ -343,6 +392,8 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
+    except BrokenPipeError:
+        raise
     except (ValueError, RuntimeError, OSError) as e:
         print(f"dcmppi {args.command}: error: {e}", file=sys.stderr)
         return 2

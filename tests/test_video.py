@@ -191,12 +191,6 @@ def test_long_episode_gif_is_subsampled_to_a_bounded_frame_count(tmp_path):
     assert info["stride"] == video.gif_stride(401) == 4
     meta, frames = frames_of(info["path"])
     assert len(frames) == len(range(0, 401, 4)) <= video.GIF_MAX_FRAMES  # 0, 4, ..., 400
-    # the same episode as MP4 keeps every frame, at real time
-    mp4 = video.render_episode(
-        env, lambda ts: [1.0], tmp_path / "long.mp4", camera="top", width=160, height=96
-    )
-    assert mp4["stride"] == 1 and len(frames_of(mp4["path"])[1]) == 401
-    # a GIF of 4x the frames would be about 4x the size
     assert (tmp_path / "long.gif").stat().st_size < 1_000_000
 
 

@@ -12,6 +12,7 @@ import os
 import sys
 
 from dcmppi.control.defaults import NOISE_PROFILES
+from dcmppi.render import CAMERAS
 
 # names that other flags set for every episode (a parameter would silently override them)
 _RESERVED = {
@@ -89,8 +90,12 @@ def cmd_run(args) -> int:
     if args.video:
         from dcmppi.bench.runner import Episode
         from dcmppi.render.recording import record_episode
+        from dcmppi.render.video import check_path
 
-        result = record_episode(Episode(spec), args.video, camera=args.camera)
+        check_path(args.video)
+        result = record_episode(
+            Episode(spec), args.video, camera=args.camera, legend=not args.no_legend
+        )
     else:
         result = run_episode(spec)
     if args.json:
@@ -121,7 +126,9 @@ def cmd_run(args) -> int:
 def cmd_compare(args) -> int:
     from dcmppi.bench.runner import Episode, EpisodeSpec, check_specs
     from dcmppi.render.recording import compare
+    from dcmppi.render.video import check_path
 
+    check_path(args.video)
     controllers = _csv(args.controllers)
     if not controllers:
         raise ValueError("--controllers needs at least one controller name")
@@ -138,7 +145,12 @@ def cmd_compare(args) -> int:
     ]
     check_specs(specs)
     results = compare(
-        [Episode(spec) for spec in specs], args.video, camera=args.camera, height=args.height
+        [Episode(spec) for spec in specs],
+        args.video,
+        camera=args.camera,
+        width=args.width,
+        height=args.height,
+        legend=not args.no_legend,
     )
     for spec, result in zip(specs, results, strict=True):
         print(
@@ -279,6 +291,12 @@ def _choices() -> dict[str, str]:
     }
 
 
+_CAMERA_HELP = (
+    "scene: straight down at the start, the goal and the obstacles between (default); "
+    "top: the whole map; chase: behind the robot"
+)
+
+
 def build_parser() -> argparse.ArgumentParser:
     c = _choices()
     parser = argparse.ArgumentParser(
@@ -314,8 +332,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--noise", default="none", help=f"noise profile: {c['noises']}")
     p.add_argument("--seed", type=int, default=0, help="environment seed")
     params(p, "controller parameter, e.g. K=1000 (repeatable)", task_param)
-    p.add_argument("--video", metavar="PATH", help="also render the episode to PATH (.mp4 or .gif)")
-    p.add_argument("--camera", default="top", choices=("top", "chase"), help="video camera")
+    p.add_argument(
+        "--video",
+        metavar="PATH",
+        help="also render the episode to PATH (.mp4: every frame, 1280x720; .gif: at most 120 "
+        "frames, 480x270)",
+    )
+    p.add_argument("--camera", default="scene", choices=CAMERAS, help=_CAMERA_HELP)
+    p.add_argument("--no-legend", action="store_true", help="no colour legend in the video")
     p.add_argument("--json", action="store_true", help="print one JSON object")
 
     p = command("compare", "one episode under several controllers, side by side", cmd_compare)
@@ -326,9 +350,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--noise", default="none", help=f"noise profile: {c['noises']}")
     p.add_argument("--seed", type=int, default=0, help="environment seed")
     params(p, shared, task_param)
-    p.add_argument("--video", required=True, metavar="PATH", help=".mp4 or .gif")
-    p.add_argument("--camera", default="top", choices=("top", "chase"), help="video camera")
-    p.add_argument("--height", type=int, default=480, help="tile height in pixels")
+    p.add_argument(
+        "--video",
+        required=True,
+        metavar="PATH",
+        help=".mp4 (every frame) or .gif (at most 120 frames, smaller tiles)",
+    )
+    p.add_argument("--camera", default="scene", choices=CAMERAS, help=_CAMERA_HELP)
+    p.add_argument("--width", type=int, help="tile width in pixels (default 640, GIF 320)")
+    p.add_argument("--height", type=int, help="tile height in pixels (default 480, GIF 240)")
+    p.add_argument("--no-legend", action="store_true", help="no colour legend in the video")
 
     p = command("figure", "value and rollout figures of one step (paper Fig. 2, 4)", cmd_figure)
     p.add_argument("--task", default="crossing", help=f"one of {c['tasks']}")
@@ -373,6 +404,23 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if os.getcwd() not in sys.path:  # package.module:ClassName from here, as with python -m
         sys.path.insert(0, os.getcwd())
+    try:
+        try:
+            return _main(argv)
+        finally:
+            sys.stdout.flush()  # a reader that has gone shows here, not at exit
+    except BrokenPipeError:
+        # The reader left (`dcmppi tasks | head -1`): stop quietly, like a command killed by
+        # SIGPIPE, and point stdout at /dev/null so that the exit's flush has nowhere to fail.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
+    except KeyboardInterrupt as e:
+        command = f"dcmppi {argv[0]}" if argv else "dcmppi"
+        print(f"{command}: interrupted" + (f"; {e}" if str(e) else ""), file=sys.stderr)
+        return 130
+
+
+def _main(argv: list[str]) -> int:
     if argv[:1] == ["timing"]:
         from dcmppi.bench import timing
 
@@ -380,6 +428,8 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
+    except BrokenPipeError:
+        raise
     except (ValueError, RuntimeError, OSError) as e:
         print(f"dcmppi {args.command}: error: {e}", file=sys.stderr)
         return 2

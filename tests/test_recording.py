@@ -1,14 +1,20 @@
 """Episode videos with controller overlays, side-by-side comparisons, and the figures."""
 
+import os
+import subprocess
+import sys
+
 import imageio.v3 as iio
 import numpy as np
 import pytest
 from conftest import frames_of
 
+from dcmppi import cli
+from dcmppi.bench import runner
 from dcmppi.bench.runner import Episode, EpisodeSpec, act, make_controller, make_env
 from dcmppi.bench.snapshot import first_step
 from dcmppi.render import video
-from dcmppi.render.figures import write_figures
+from dcmppi.render.figures import PLAN_STYLES, rollouts_figure, write_figures
 from dcmppi.render.overlay import Overlay
 from dcmppi.render.recording import compare, record_episode
 
@@ -75,6 +81,18 @@ def test_figures_mark_the_controllers_actual_outputs(tmp_path, task):
     result = write_figures(observation, runs, tmp_path, f"{task}, seed 3")
     for png in result["files"]:
         assert iio.imread(png).size > 0
+    # rollouts.png: a futures panel only where dc sampled some, plans widest first, each in
+    # its own style, and the robot's marker named for what it is
+    fig = rollouts_figure(observation, runs)
+    assert len(fig.axes) == {"blocked": 2, "crossing": 3}[task]
+    plans = [line for line in fig.axes[-1].get_lines() if line.get_label() in runs]
+    assert [line.get_label() for line in plans] == list(runs)
+    widths = [line.get_linewidth() for line in plans]
+    assert widths == sorted(widths, reverse=True)
+    assert len({(line.get_linestyle(), line.get_marker()) for line in plans}) == len(runs)
+    labels = fig.axes[-1].get_legend_handles_labels()[1]
+    assert "robot at the planned step" in labels and "start" not in labels
+    assert len(PLAN_STYLES) >= len(runs)
     # replay the same step independently: drive straight, then each controller acts once
     env = make_env(s)
     time_step = env.reset()
@@ -85,3 +103,67 @@ def test_figures_mark_the_controllers_actual_outputs(tmp_path, task):
         controller = make_controller(EpisodeSpec(task, name, seed=3, controller_params=SMALL))
         controller.reset()
         assert act(controller, time_step.observation)[0] == marked
+
+
+def test_overlay_legend_names_what_is_drawn():
+    mppi = Episode(spec("mppi", task="crossing"))
+    dc = Episode(spec("dc", task="crowd"))  # obstacles near from the start
+    assert Overlay(mppi.controller).legend() == []  # nothing planned yet, nothing drawn
+    for episode in (mppi, dc):
+        for _ in range(2):
+            episode.step()
+    overlay = Overlay(mppi.controller)
+    overlay.record(np.zeros(3))
+    overlay.record(np.ones(3))
+    assert [label for _, label in overlay.legend()] == [
+        "sampled rollouts", "plan", "trail",
+    ]  # fmt: skip
+    labels = [label for _, label in Overlay(dc.controller).legend()]
+    assert labels[:2] == ["rollouts by cluster", "in no cluster"]
+    assert labels[-1] == "obstacle futures"
+
+
+def test_cli_video_path_under_a_file_is_one_line_exit_2(tmp_path, capsys):
+    (tmp_path / "notes").write_text("")
+    argv = ["--task", "blocked", "--video", str(tmp_path / "notes" / "clip.mp4")]
+    assert cli.main(["run", "--controller", "mppi", *argv]) == 2
+    assert cli.main(["compare", "--controllers", "mppi", *argv]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 2 and all("notes is a file, not a folder" in line for line in lines)
+    assert lines[0].startswith("dcmppi run: error: ")
+
+
+def test_cli_ctrl_c_during_a_video_prints_one_line_and_keeps_a_playable_video(
+    tmp_path, capsys, monkeypatch
+):
+    step, calls = runner.Episode.step, []
+
+    def interrupted(self):
+        calls.append(1)
+        if len(calls) == 4:
+            raise KeyboardInterrupt
+        step(self)
+
+    monkeypatch.setattr(runner.Episode, "step", interrupted)
+    path = tmp_path / "cut.mp4"
+    argv = ["run", "--task", "blocked", "--controller", "mppi", "--param", "K=32",
+            "--param", "N=10", "--video", str(path)]  # fmt: skip
+    assert cli.main(argv) == 130
+    err = capsys.readouterr().err
+    assert err == f"dcmppi run: interrupted; the video so far (4 frames) is in {path}\n"
+    meta, frames = frames_of(path)  # the reset frame and the three steps before Ctrl-C
+    assert len(frames) == 4 and meta["size"] == (1280, 720)
+
+
+@pytest.mark.parametrize("argv", [["tasks"], ["--help"]])
+def test_cli_output_into_a_closed_pipe_is_quiet(argv):
+    read, write = os.pipe()
+    os.close(read)  # the reader has gone, as `dcmppi tasks | head -1` after one line
+    try:
+        out = subprocess.run(
+            [sys.executable, "-m", "dcmppi.cli", *argv], stdout=write, stderr=subprocess.PIPE
+        )
+    finally:
+        os.close(write)
+    assert out.stderr == b""
+    assert out.returncode in (0, 141)  # argparse's --help swallows the error itself

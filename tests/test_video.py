@@ -94,3 +94,125 @@ def test_broken_backend_gives_one_clear_error(monkeypatch):
 def test_importing_dcmppi_does_not_import_mujoco():
     code = "import sys, dcmppi; assert not {'mujoco', 'dcmppi.render.video'} & set(sys.modules)"
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def _pixels(frame, rgb, tol=40):
+    """How many pixels of `frame` are within `tol` of the colour rgb (0-255)."""
+    return int((np.abs(frame.astype(int) - rgb).max(axis=-1) < tol).sum())
+
+
+def test_scene_camera_frames_robot_and_obstacle_much_larger_than_top():
+    env = tasks.load("blocked", {})
+    observation = env.reset().observation
+    region = video.scene_region(observation)
+    # start (27.5, 25), goal (47.5, 25), the obstacle (37.5, 25, r 2) and 3 m margins
+    np.testing.assert_allclose(region, [24.5, 20.0, 50.5, 30.0])
+    renderer = video.Renderer(env.physics.model.ptr, 640, 360)
+    try:
+        top = renderer.render(env.physics, "top")
+        renderer.look_at(region)
+        scene = renderer.render(env.physics, "scene")
+    finally:
+        renderer.close()
+    robot, obstacle = (217, 26, 217), (153, 38, 31)  # the hull and static obstacle materials
+    for rgb in (robot, obstacle):
+        assert _pixels(top, rgb) > 10
+        assert _pixels(scene, rgb) > 8 * _pixels(top, rgb)  # about 13 x the area
+    # upright like the top view: world x to the right, world y up
+    env.physics.data.qpos[1] += 3.0
+    env.physics.forward()
+    renderer = video.Renderer(env.physics.model.ptr, 320, 180)
+    try:
+        renderer.look_at(region)
+        frame = renderer.render(env.physics, "scene")
+    finally:
+        renderer.close()
+    where = {}
+    for name, rgb in (("robot", robot), ("obstacle", obstacle)):
+        rows, cols = np.nonzero(np.abs(frame.astype(int) - rgb).max(axis=-1) < 40)
+        where[name] = rows.mean(), cols.mean()
+    assert where["robot"][1] < where["obstacle"][1] - 50  # start x 27.5 < obstacle x 37.5
+    assert where["robot"][0] < where["obstacle"][0] - 20  # robot y 28 > obstacle y 25
+
+
+def test_scene_region_keeps_obstacles_near_the_line_and_the_map():
+    observation = {
+        "robot_pose": np.array([10.0, 10.0, 0.0]),
+        "goal": np.array([30.0, 10.0]),
+        "static_obstacles": np.array([[20.0, 14.0, 1.0], [20.0, 40.0, 1.0], [0.0, 0.0, 0.0]]),
+        "moving_obstacles": np.array([[33.0, 5.0, 0.0, 0.5]]),  # 5.3 m past the goal: in
+        "map_bounds": np.array([0.0, 0.0, 75.0, 50.0]),
+    }
+    # corridor max(5, 0.4 x 20) = 8 m: the cylinder 3 m off the line counts, 29 m off not
+    np.testing.assert_allclose(video.scene_region(observation, margin=1.0), [9, 3.5, 34.5, 16])
+    observation["robot_pose"][:2] = [1.0, 1.0]
+    observation["static_obstacles"][0] = [2.0, 1.0, 4.0]  # reaches past the map's corner
+    assert video.scene_region(observation, margin=3.0)[:2].tolist() == [-3.0, -3.0]  # map + 3 m
+    with pytest.raises(RuntimeError, match="look_at"):
+        env = tasks.load("blocked", {})
+        env.reset()
+        renderer = video.Renderer(env.physics.model.ptr, 64, 48)
+        try:
+            renderer.render(env.physics, "scene")
+        finally:
+            renderer.close()
+
+
+def test_legend_is_drawn_at_the_bottom_left_in_rows_that_fit_the_width():
+    env = tasks.load("blocked", {})
+    env.reset()
+    legend = [((1.0, 0.0, 0.0, 1.0), "plan"), ((0.0, 0.0, 1.0, 1.0), "trail (path driven)")]
+    boxes = {}
+    for width in (320, 160):
+        renderer = video.Renderer(env.physics.model.ptr, width, 180)
+        try:
+            plain = renderer.render(env.physics, "top")
+            with_legend = renderer.render(env.physics, "top", legend=legend)
+        finally:
+            renderer.close()
+        rows, cols = np.nonzero(np.any(plain != with_legend, axis=-1))
+        boxes[width] = rows.min(), cols.min(), cols.max()
+        assert _pixels(with_legend, (255, 0, 0), 10) > 20  # the colour bars
+        assert _pixels(with_legend, (0, 0, 255), 10) > 20
+        assert _pixels(with_legend, (255, 255, 255), 10) > _pixels(plain, (255, 255, 255), 10)
+    top, left, right = boxes[320]
+    assert top > 180 - 40 and left < 10 and right < 320 - 10  # one row at the bottom left
+    top, left, right = boxes[160]
+    assert top < 180 - 40 and right < 160  # two rows: the labels do not fit one
+
+
+def test_long_episode_gif_is_subsampled_to_a_bounded_frame_count(tmp_path):
+    # 40 s of circling (400 steps) at full turn, clear of the obstacle
+    env = tasks.load("blocked", {"time_limit": 40.0})
+    info = video.render_episode(
+        env, lambda ts: [1.0], tmp_path / "long.gif", camera="top", width=160, height=96
+    )
+    assert info["frames"] == 401 and info["outcome"] == "time_limit"
+    assert info["stride"] == video.gif_stride(401) == 4
+    meta, frames = frames_of(info["path"])
+    assert len(frames) == len(range(0, 401, 4)) <= video.GIF_MAX_FRAMES  # 0, 4, ..., 400
+    assert (tmp_path / "long.gif").stat().st_size < 1_000_000
+
+
+@pytest.mark.parametrize("suffix", [".mp4", ".gif"])
+def test_interrupted_video_is_finished_with_the_frames_so_far(tmp_path, suffix):
+    path = tmp_path / f"cut{suffix}"
+    frame = np.zeros((48, 64, 3), np.uint8)
+    with pytest.raises(KeyboardInterrupt):
+        with video.VideoWriter(path, 64, 48, 10.0) as writer:
+            for i in range(7):
+                frame[:, : 8 * i] = 200
+                writer.write(frame)
+            raise KeyboardInterrupt
+    frames = frames_of(path)[1]
+    assert len(frames) == 7
+    assert frames[-1][:, :40].mean() > 150 and frames[0].mean() < 20
+
+
+def test_video_path_in_a_file_or_with_a_bad_suffix_is_refused(tmp_path):
+    (tmp_path / "notes.txt").write_text("")
+    with pytest.raises(ValueError, match="notes.txt is a file, not a folder"):
+        video.check_path(tmp_path / "notes.txt" / "sub" / "clip.mp4")
+    with pytest.raises(ValueError, match="mp4 or .gif"):
+        video.check_path(tmp_path / "clip.webm")
+    assert video.check_path(tmp_path / "new" / "clip.GIF").suffix == ".GIF"

@@ -19,8 +19,9 @@ def pyplot():
     return plt
 
 
-def draw_world(ax, obs) -> None:
-    """Static and moving cylinders, start and goal of a task observation, to scale."""
+def draw_world(ax, obs, robot_label: str = "start") -> None:
+    """Static and moving cylinders, the robot's position (labelled `robot_label`) and the goal
+    of a task observation, to scale."""
     from matplotlib.patches import Circle
 
     for x, y, r in obs["static_obstacles"]:
@@ -29,7 +30,7 @@ def draw_world(ax, obs) -> None:
     for x, y, _, r in obs["moving_obstacles"]:
         ax.add_patch(Circle((x, y), r, color="tab:purple", alpha=0.4))
     x0, y0 = obs["robot_pose"][:2]
-    ax.plot(x0, y0, "o", color="magenta", ms=8, label="start")
+    ax.plot(x0, y0, "o", color="magenta", ms=8, label=robot_label)
     ax.plot(*obs["goal"], "*", color="green", ms=16, label="goal")
     xmin, ymin, xmax, ymax = obs["map_bounds"]
     ax.set_xlim(xmin, xmax)

@@ -7,7 +7,9 @@ perturbations: `dcmppi.bench.snapshot.first_step`); the figures show
   the perturbation, coloured by DBSCAN cluster (grey: noise, or no clustering), with the
   control each algorithm applies marked by a star (paper Fig. 2 and Fig. 4, bottom row);
 - `rollouts.png`: the sampled agent rollouts coloured by cluster, the sampled futures of the
-  moving obstacles, and each algorithm's plan (paper Fig. 4, top row).
+  moving obstacles (a panel only where `dc` sampled any), and each algorithm's plan (paper
+  Fig. 4, top row), drawn widest first with its own line style and markers, so that a plan
+  under another stays visible.
 
 The value is shifted by min J so that it does not underflow (J is in the hundreds); the
 shape, which is what the figure is about, is unchanged.
@@ -76,28 +78,7 @@ def write_figures(observation, runs, out_dir, title: str) -> dict:
     fig.savefig(values_png, dpi=120)
     plt.close(fig)
 
-    fig, axes = plt.subplots(1, 3, figsize=(15, 5))
-    clustered = next((runs[c][0] for c in ("dc", "clustered") if c in runs), None)
-    shown = clustered or next(iter(runs.values()))[0]
-    d = shown.diagnostics
-    rgb = cluster_rgb(d.labels, len(d.states))
-    for ax in axes:
-        draw_world(ax, observation)
-        _zoom(ax, state, observation["goal"])
-    for k in range(0, len(d.states), max(1, len(d.states) // 150)):
-        axes[0].plot(d.states[k, :, 0], d.states[k, :, 1], color=rgb[k], lw=0.6, alpha=0.6)
-    axes[0].set_title(f"sampled rollouts of {shown.name}, by cluster")
-    futures = runs["dc"][0].diagnostics.obstacle_samples if "dc" in runs else None
-    if futures is not None:
-        for track in futures.reshape(-1, futures.shape[2], 2):
-            axes[1].plot(track[:, 0], track[:, 1], color="tab:orange", lw=0.6, alpha=0.5)
-    axes[1].set_title("sampled obstacle futures (dc)")
-    for name, (ctrl, _) in runs.items():
-        path = ctrl.agent.rollout_one(state, ctrl.diagnostics.plan, ctrl.dt)
-        axes[2].plot(path[:, 0], path[:, 1], color=COLORS.get(name), lw=2.2, label=name)
-    axes[2].legend(fontsize=8)
-    axes[2].set_title("each algorithm's plan")
-    fig.tight_layout()
+    fig = rollouts_figure(observation, runs)
     rollouts_png = out / "rollouts.png"
     fig.savefig(rollouts_png, dpi=120)
     plt.close(fig)
@@ -106,6 +87,47 @@ def write_figures(observation, runs, out_dir, title: str) -> dict:
         "actions": {name: action for name, (_, action) in runs.items()},
         "control": control,
     }
+
+
+# (line style, width, marker) of the plans in drawing order: widest first, so every plan
+# drawn over another leaves the one below visible at its edges.
+PLAN_STYLES = (("-", 6.0, "o"), ("--", 4.2, "s"), ("-.", 2.8, "^"), (":", 1.8, "D"))
+
+
+def rollouts_figure(observation, runs):
+    """The matplotlib Figure of rollouts.png (see the module docstring and `write_figures`):
+    panels sampled rollouts, obstacle futures (only if `dc` sampled some) and plans."""
+    plt = pyplot()
+    state = observation["robot_pose"]
+    futures = runs["dc"][0].diagnostics.obstacle_samples if "dc" in runs else None
+    has_futures = futures is not None and futures.size > 0
+    fig, axes = plt.subplots(1, 3 if has_futures else 2, figsize=(15 if has_futures else 10, 5))
+    clustered = next((runs[c][0] for c in ("dc", "clustered") if c in runs), None)
+    shown = clustered or next(iter(runs.values()))[0]
+    d = shown.diagnostics
+    rgb = cluster_rgb(d.labels, len(d.states))
+    for ax in axes:
+        draw_world(ax, observation, robot_label="robot at the planned step")
+        _zoom(ax, state, observation["goal"])
+    for k in range(0, len(d.states), max(1, len(d.states) // 150)):
+        axes[0].plot(d.states[k, :, 0], d.states[k, :, 1], color=rgb[k], lw=0.6, alpha=0.6)
+    axes[0].set_title(f"sampled rollouts of {shown.name}, by cluster")
+    if has_futures:
+        for track in futures.reshape(-1, futures.shape[2], 2):
+            axes[1].plot(track[:, 0], track[:, 1], color="tab:orange", lw=0.6, alpha=0.5)
+        axes[1].set_title("sampled obstacle futures (dc)")
+    for i, (name, (ctrl, _)) in enumerate(runs.items()):
+        style, width, marker = PLAN_STYLES[i % len(PLAN_STYLES)]
+        path = ctrl.agent.rollout_one(state, ctrl.diagnostics.plan, ctrl.dt)
+        every = max(1, len(path) // 8)
+        axes[-1].plot(
+            path[:, 0], path[:, 1], style, color=COLORS.get(name), lw=width, marker=marker,
+            ms=width + 3, markevery=(i * every // len(runs), every), label=name, zorder=3 + i,
+        )  # fmt: skip
+    axes[-1].legend(fontsize=8)
+    axes[-1].set_title("each algorithm's plan")
+    fig.tight_layout()
+    return fig
 
 
 def steering_control(controller, goal) -> int:

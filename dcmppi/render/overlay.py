@@ -1,10 +1,12 @@
 """Draw a controller's last step into a MuJoCo scene: what the algorithm is thinking.
 
-- sampled rollouts (a subsample), coloured by DBSCAN cluster, grey for noise points and
-  for `mppi` / `tube`, which do not cluster;
+- sampled rollouts (a subsample), coloured by DBSCAN cluster (the chosen cluster's opaque),
+  grey for noise points and for `mppi` / `tube`, which do not cluster;
 - the chosen plan, thick, rolled out without noise from the robot's state;
 - the executed path as a trail;
 - for `dc`, the sampled futures of the nearby moving obstacles, faint.
+
+`Overlay.legend()` names the colours of what it draws, for the video's legend.
 
 Every geom goes through `dcmppi.render.video.add_polyline`, which stops at `scene.maxgeom`; the
 subsampling below keeps one frame to about 1,500 geoms whatever K, N and P are.
@@ -69,6 +71,24 @@ class Overlay:
             trail = np.asarray(self.trail)
             stride = max(1, len(trail) // 200)
             add_polyline(scene, np.vstack([trail[::stride], trail[-1:]]), TRAIL_RGBA, 0.08, 0.04)
+
+    def legend(self) -> list[tuple[tuple, str]]:
+        """[(rgba, label)] for each kind of line the overlay draws now, from the controller's
+        latest diagnostics (for `dcmppi.render.video.Renderer.render(legend=...)`)."""
+        d = self.controller.diagnostics
+        out = []
+        if d.states is not None:
+            if d.labels is not None:
+                out += [((*PALETTE[0], 1.0), "rollouts by cluster"),
+                        ((*GREY, 1.0), "in no cluster")]  # fmt: skip
+            else:
+                out.append(((*GREY, 1.0), "sampled rollouts"))
+            out.append((PLAN_RGBA, "plan"))
+        if len(self.trail) > 1:
+            out.append((TRAIL_RGBA, "trail"))
+        if d.obstacle_samples is not None and len(d.obstacle_samples):
+            out.append(((*FUTURE_RGBA[:3], 1.0), "obstacle futures"))
+        return out
 
     def _steps(self, n: int) -> np.ndarray:
         """Indices 0..n-1 subsampled to at most `segments` + 1 points, last included."""

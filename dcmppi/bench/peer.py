@@ -85,11 +85,14 @@ class PeerProblem:
         self.dtype = torch.float64 if dtype is None else dtype
         self.v, self.dt, self.alpha = ctrl.agent.v, ctrl.dt, ctrl.alpha
         grid = OccupancyGrid(static, ctrl.robot_radius, ctrl.resolution)
-        self.occupied = torch.from_numpy(grid.grid.ravel())
+        # alpha x occupancy of every cell, flat; a state's cell index is int(clip((p - origin)
+        # / resolution, 0, last cell)) along x and y, as in our lookup
+        self.penalty = torch.from_numpy(self.alpha * grid.grid.ravel()).to(self.dtype)
         self.columns = grid.shape[1]
-        self.origin = [float(o) for o in grid.origin]
-        self.last = [float(s - 1) for s in grid.shape]  # last cell index along x and y
+        self.origin = torch.tensor(grid.origin, dtype=self.dtype)
         self.inv = 1.0 / grid.resolution
+        self.first = torch.zeros(2, dtype=self.dtype)
+        self.last = torch.tensor(grid.shape, dtype=self.dtype) - 1.0
         self.goal = [float(g) for g in goal]
 
     def dynamics(self, state, u):
@@ -110,13 +113,10 @@ class PeerProblem:
 
     def state_cost(self, state):
         """c(x) = |p - goal| + alpha occupancy(p). state: (..., 3). Returns (...)."""
-        torch = self.torch
-        x, y = state[..., 0], state[..., 1]
-        dx, dy = x - self.goal[0], y - self.goal[1]
-        i = ((x - self.origin[0]) * self.inv).clamp(0.0, self.last[0]).long()
-        j = ((y - self.origin[1]) * self.inv).clamp(0.0, self.last[1]).long()
-        occupied = self.occupied[i * self.columns + j]
-        return torch.sqrt(dx * dx + dy * dy) + self.alpha * occupied.to(state.dtype)
+        p = state[..., :2]
+        cells = ((p - self.origin) * self.inv).clamp(self.first, self.last).long()
+        distance = self.torch.hypot(p[..., 0] - self.goal[0], p[..., 1] - self.goal[1])
+        return distance + self.penalty[cells[..., 0] * self.columns + cells[..., 1]]
 
     def running_cost(self, state, u):
         """pytorch_mppi's running cost of the state after each step: (R, 3), (R, 1) -> (R,)."""

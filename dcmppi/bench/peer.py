@@ -192,9 +192,9 @@ def compare(ours, steps):
     """Time our closed loop `ours` (timing.ClosedLoop, not yet stepped) beside pytorch_mppi's.
 
     Both run `steps` control steps, interleaved one step each, with torch on one thread (the
-    caller limits numpy's pools). Returns a dict: versions, ours and theirs (median_ms, p95_ms),
-    ratios, the first actions and first plans' costs under the shared cost, and `same_problem`:
-    a short message that both solve the same problem.
+    caller limits numpy's pools). Returns a dict: settings, versions, ours and theirs
+    (median_ms, p95_ms), both ratios, the first actions and first plans' costs under the shared
+    cost, and `same_problem`: a short message that both solve the same problem.
     """
     torch, _ = require()
     threads = torch.get_num_threads()
@@ -215,7 +215,17 @@ def compare(ours, steps):
     costs = problem.cost(start, torch.from_numpy(np.vstack([plans, 0 * plans[:1]]))).tolist()
     first = plans[:, 0, 0].tolist()
     gap = float(np.hypot(*(ours.state[:2] - theirs.state[:2])))
+    c = ours.ctrl
     return {
+        "settings": {
+            "controller": c.name,
+            "perturbation": c.perturbation,
+            "K": c.K,
+            "N": c.N,
+            "lambda": c.lambda_,
+            "Sigma": c.Sigma.tolist(),
+            "steps": steps,
+        },
         "versions": {
             "torch": torch.__version__,
             "pytorch_mppi": importlib.metadata.version("pytorch-mppi"),

@@ -253,10 +253,10 @@ def against(args):
     if args.json:
         print(json.dumps(result, indent=2))
         return 0
-    v = result["versions"]
+    v, s = result["versions"], result["settings"]
     print(
         f"dcmppi timing --against pytorch_mppi {v['pytorch_mppi']} (torch {v['torch']}): forest, "
-        f"K={defaults.K} N={defaults.N}, time-varying noise, one thread, {args.steps} steps"
+        f"K={s['K']} N={s['N']}, {s['perturbation']} noise, one thread, {args.steps} steps"
     )
     print(f"{'controller':<20} {'median ms':>9} {'p95 ms':>7}")
     for name, key in (("mppi (dcmppi)", "ours"), ("pytorch_mppi", "theirs")):

@@ -235,13 +235,21 @@ CASES = (
 
 
 def main(argv=None):
-    """Run the timing benchmark; print a table or JSON. Returns 0."""
+    """Run the timing benchmark; print a table or JSON. Returns 0 (2: --against without its
+    packages)."""
     parser = argparse.ArgumentParser(prog="dcmppi timing", description=__doc__.split("\n")[0])
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--steps", type=int, default=100, help="control steps per case")
+    parser.add_argument(
+        "--against",
+        choices=["pytorch_mppi"],
+        help="time pytorch_mppi beside our mppi on the same problem (needs the extra `peer`)",
+    )
     args = parser.parse_args(argv)
     if args.steps < 5:
         parser.error("--steps must be >= 5")
+    if args.against:
+        return against(args)
     with threadpool_limits(1):
         times = time_cases(CASES, args.steps)
     rows = [
@@ -274,6 +282,37 @@ def main(argv=None):
             f"{r['case']:<21} {r['problem']:<11} {r['median_ms']:9.3f} {r['p95_ms']:7.3f} "
             f"{r['ratio']:6.2f}  {r['target']}"
         )
+    return 0
+
+
+def against(args):
+    """`--against pytorch_mppi`: our mppi (time-varying) and pytorch_mppi on the forest."""
+    from dcmppi.bench import peer
+
+    try:
+        peer.require()
+    except ImportError as e:
+        print(f"dcmppi timing: {e}", file=sys.stderr)
+        return 2
+    ours = ClosedLoop("mppi", "forest", args.steps, perturbation="time_varying")
+    with threadpool_limits(1):
+        result = peer.compare(ours, args.steps)
+    if args.json:
+        print(json.dumps(result, indent=2))
+        return 0
+    v, s = result["versions"], result["settings"]
+    print(
+        f"dcmppi timing --against pytorch_mppi {v['pytorch_mppi']} (torch {v['torch']}): forest, "
+        f"K={s['K']} N={s['N']}, {s['perturbation']} noise, one thread, {args.steps} steps"
+    )
+    print(f"{'controller':<20} {'median ms':>9} {'p95 ms':>7}")
+    for name, key in (("mppi (dcmppi)", "ours"), ("pytorch_mppi", "theirs")):
+        print(f"{name:<20} {result[key]['median_ms']:9.3f} {result[key]['p95_ms']:7.3f}")
+    print(
+        f"pytorch_mppi / ours = {result['theirs_over_ours']:.1f} (target >= 20), "
+        f"ours / pytorch_mppi = {result['ours_over_theirs']:.3f}"
+    )
+    print(f"same problem: {result['same_problem']}")
     return 0
 
 

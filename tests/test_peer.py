@@ -1,0 +1,91 @@
+"""`dcmppi timing --against pytorch_mppi`: the peer's problem equals ours (dynamics, cost, plan
+from the same perturbations), and the flag without torch or pytorch-mppi says how to install."""
+
+import sys
+
+import numpy as np
+import pytest
+
+from dcmppi.bench import peer, timing
+from dcmppi.control.agents import make_agent
+from dcmppi.control.controllers import make_controller
+from dcmppi.control.costs import OccupancyGrid
+
+
+def test_against_without_the_packages_prints_the_install_command(monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "torch", None)  # `import torch` raises ImportError
+    assert timing.main(["--against", "pytorch_mppi", "--steps", "5"]) == 2
+    out = capsys.readouterr()
+    assert out.out == ""
+    assert out.err.count("\n") == 1
+    assert "missing: torch" in out.err
+    assert "pip install torch==2.13.0 pytorch-mppi" in out.err
+    assert 'pip install "dcmppi[peer]"' in out.err
+
+
+def _peer():
+    torch = pytest.importorskip("torch")
+    pytest.importorskip("pytorch_mppi")
+    return torch
+
+
+STATIC, _, GOAL = timing.forest()
+FIRST = STATIC[np.argmin(STATIC[:, 0])]
+START = np.array([FIRST[0] - FIRST[2] - 2.0, FIRST[1], 0.0])  # 2 m before it, heading at it
+
+
+def _problem(**params):
+    """A small controller after one step from START and the peer's problem: ctrl.evaluate then
+    sees the same start, goal and static map."""
+    ctrl = make_controller("mppi", seed=0, perturbation="time_varying", **params)
+    ctrl.act(START, GOAL, STATIC)
+    return ctrl, peer.PeerProblem(ctrl, STATIC, GOAL)
+
+
+def test_dynamics_equal_our_agents_step():
+    torch = _peer()
+    ctrl, problem = _problem(K=8, N=5)
+    rng = np.random.default_rng(1)
+    states = rng.uniform([-100, -100, -10], [100, 100, 10], (1000, 3))
+    omega = rng.uniform(-3, 3, (1000, 1))  # beyond the bounds too: the arc, not its clipping
+    omega[:10] = 0.0  # straight lines: sinc(0)
+    ours = make_agent("dubins").step(states, omega, ctrl.dt)
+    theirs = problem.dynamics(torch.from_numpy(states), torch.from_numpy(omega)).numpy()
+    np.testing.assert_allclose(theirs, ours, rtol=0, atol=1e-9)
+
+
+def test_cost_of_rollouts_equals_evaluate():
+    torch = _peer()
+    ctrl, problem = _problem(K=8, N=30)
+    rng = np.random.default_rng(2)
+    # (N, nu, R) within the bounds: a fan of arcs, from hard right to hard left
+    u = np.clip(np.linspace(-1, 1, 64) + rng.normal(0, 0.3, (ctrl.N, 1, 64)), -1, 1)
+    states, J = ctrl.evaluate(START, u)
+    theirs = problem.cost(START, torch.from_numpy(u.transpose(2, 0, 1))).numpy()
+    hits = OccupancyGrid(STATIC, ctrl.robot_radius, ctrl.resolution).count(*states[:2])
+    assert 0 < np.count_nonzero(hits) < len(hits)  # the occupancy lookup matters
+    assert len(np.unique(hits)) > 3
+    np.testing.assert_allclose(theirs, J, rtol=1e-6)
+
+
+def test_pytorch_mppi_plans_as_ours_from_the_same_perturbations():
+    """Same start, warm start and perturbations: the configured peer's plan is ours (the x_0
+    cost it leaves out shifts every sample's S alike). The warm start turns, so the control
+    cost lambda U^T Sigma^-1 eps matters, and its end is 0, pytorch_mppi's u_init."""
+    torch = _peer()
+    ctrl, problem = _problem(K=200, N=30)
+    ctrl.reset(seed=0)
+    U0 = np.linspace(0.9, 0.0, ctrl.N)[:, None]  # (N, nu)
+    ctrl.U = U0.copy()
+    eps = ctrl.sample()  # (N, nu, K)
+    ctrl.sample = lambda: eps
+    ctrl.act(START, GOAL, STATIC)
+    mppi = peer.make_peer(ctrl, problem)
+    mppi.U = torch.roll(torch.from_numpy(U0), 1, 0)  # command() shifts it back to U0 first
+    noise = torch.from_numpy(np.ascontiguousarray(eps.transpose(2, 0, 1)))  # (K, N, nu)
+    mppi._sample_noise = lambda shape: noise
+    mppi.command(torch.from_numpy(START))
+    plan = ctrl.diagnostics.plan
+    assert np.abs(plan - U0).max() > 0.05  # the update moved the plan
+    assert np.any(np.abs(U0 + eps[:, :, 0]) > 1)  # some sampled controls were clipped
+    np.testing.assert_allclose(mppi.U.numpy(), plan, rtol=0, atol=1e-6)

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dcmppi.control.controllers import Diagnostics
 from dcmppi.render.draw import COLORS, draw_world, pyplot
 from dcmppi.render.overlay import cluster_rgb
 
@@ -45,6 +46,16 @@ def write_figures(observation, runs, out_dir, title: str) -> dict:
       {"files": [paths], "actions": {controller: applied control marked in the figure},
        "control": the name of the control on the value plot's axis}.
     """
+    plain = [
+        n
+        for n, (c, _) in runs.items()
+        if not isinstance(getattr(c, "diagnostics", None), Diagnostics)
+    ]
+    if plain:
+        raise ValueError(
+            f"figure draws sampled rollouts and their values: {', '.join(plain)} records none "
+            "(subclass dcmppi.Controller to get the diagnostics)"
+        )
     plt = pyplot()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from dcmppi.control.controllers import Diagnostics
 from dcmppi.render.video import add_polyline
 
 # Tableau-like cluster colours; noise and unclustered samples are grey.
@@ -44,7 +45,8 @@ class Overlay:
     """Scene decorator for `dcmppi.render.video.Renderer.render(..., decorate=overlay)`.
 
     Args:
-      controller: a dcmppi controller; its `diagnostics` are read at every frame.
+      controller: a dcmppi controller; its `diagnostics` are read at every frame (a user's
+        controller without them gets the trail only).
       rollouts: how many sampled rollouts to draw (evenly spread over the K samples).
       segments: polyline segments per rollout (the horizon is subsampled to this).
       futures: sampled futures drawn per moving obstacle (dc), for at most `obstacles`.
@@ -60,8 +62,12 @@ class Overlay:
         """Append the robot's pose (3,) to the trail (call once per control step)."""
         self.trail.append(np.array(robot_pose[:2], dtype=float))
 
+    def _diagnostics(self) -> Diagnostics:
+        d = getattr(self.controller, "diagnostics", None)
+        return d if isinstance(d, Diagnostics) else Diagnostics()
+
     def __call__(self, scene, physics) -> None:
-        d = self.controller.diagnostics
+        d = self._diagnostics()
         if d.states is not None:
             self._rollouts(scene, d)
             self._plan(scene, d)
@@ -75,7 +81,7 @@ class Overlay:
     def legend(self) -> list[tuple[tuple, str]]:
         """[(rgba, label)] for each kind of line the overlay draws now, from the controller's
         latest diagnostics (for `dcmppi.render.video.Renderer.render(legend=...)`)."""
-        d = self.controller.diagnostics
+        d = self._diagnostics()
         out = []
         if d.states is not None:
             if d.labels is not None:

@@ -14,7 +14,7 @@ MINIMAL = 'task = "blocked"\nepisodes = 2\n[[rows]]\ncontroller = "mppi"\n'
 
 
 def test_shipped_experiments_hold_the_papers_setup():
-    assert experiment_names() == ["dynamic", "dynamic-dubins", "static"]
+    assert experiment_names() == ["dynamic", "dynamic-dubins", "dynamic-ekf", "static"]
     static = load_experiment("static")
     assert (static.task, static.episodes, static.base_seed) == ("forest", 1000, 2024)
     assert static.labels == ("mppi", "tube", "clustered")
@@ -40,9 +40,14 @@ def test_shipped_experiments_hold_the_papers_setup():
     assert dubins.task_params == {"agent": "dubins"} and dubins.controller_params == {}
     assert dubins.labels == ("mppi", "clustered", "tube", "dc")
     assert dubins.paper("none", "clustered") == Paper(2, None, 288)
+    ekf = load_experiment("dynamic-ekf")
+    assert ekf.task_params == {"agent": "holonomic", "obstacle_measurement_std": 0.1}
+    assert ekf.controller_params == dynamic.controller_params
+    assert ekf.labels == ("mppi+margin", "dc-prior", "dc-ekf") and ekf.reference == "dc-ekf"
+    assert ekf.row("dc-ekf").params == {"prediction": "ekf", "measurement_std": 0.1}
 
 
-@pytest.mark.parametrize("name", ["static", "dynamic", "dynamic-dubins"])
+@pytest.mark.parametrize("name", ["static", "dynamic", "dynamic-dubins", "dynamic-ekf"])
 def test_every_shipped_row_builds(name):
     """Each row's controller takes the experiment's parameters with the task's agent."""
     check_specs([spec for _, spec in load_experiment(name).select(episodes=1).specs()])

@@ -7,9 +7,9 @@ are skipped. JSON: {"cylinders": [[x, y, radius], ...], "start": [x, y, yaw],
 "cylinders" optional. Task kwargs override what the file says.
 
 BARN (Perille et al. 2020, MIT licence): pass world=N (0-299). Start, goal and time limit then
-default to the challenge's protocol (BARN_START, BARN_GOAL, BARN_TIME_LIMIT); the file is
-`path`, else $DCMPPI_BARN_CSV, else ../shared/barn/barn_cylinders.csv next to the repository
-or the working directory.
+default to the challenge's protocol (BARN_START, BARN_GOAL, BARN_TIME_LIMIT) and the task gives
+the `optimal_time` of BARN's navigation score (tasks/barn.py). The BARN file is not part of
+dcmppi: it is `path`, else the file that $DCMPPI_BARN names.
 """
 
 import csv
@@ -22,12 +22,13 @@ import pathlib
 
 import numpy as np
 
-from . import navigation, worlds
+from . import barn, navigation, worlds
 
 BARN_START = (-2.25, 3.0, math.pi / 2)
 BARN_GOAL = (-2.25, 13.0)
 BARN_TIME_LIMIT = 100.0
-BARN_RELATIVE_PATH = pathlib.Path("..", "shared", "barn", "barn_cylinders.csv")
+BARN_TOP_SPEED = 2.0  # [m/s] Clearpath Jackal; the challenge's optimal_time = length / 2 m/s
+BARN_ENV = "DCMPPI_BARN"  # environment variable naming the BARN file
 BOUNDS_MARGIN = 2.0  # [m] added around cylinders, start and goal when no bounds are given
 
 
@@ -43,17 +44,20 @@ class LayoutFile:
 
 
 def barn_path() -> pathlib.Path:
-    """The BARN cylinder file: $DCMPPI_BARN_CSV or ../shared/barn/barn_cylinders.csv."""
-    if os.environ.get("DCMPPI_BARN_CSV"):
-        return pathlib.Path(os.environ["DCMPPI_BARN_CSV"])
-    roots = [pathlib.Path(__file__).resolve().parents[1], pathlib.Path.cwd()]
-    for root in roots:
-        if (root / BARN_RELATIVE_PATH).is_file():
-            return (root / BARN_RELATIVE_PATH).resolve()
-    raise ValueError(
-        f"BARN file not found at {BARN_RELATIVE_PATH} relative to "
-        f"{' or '.join(str(r) for r in roots)}; pass path=... or set DCMPPI_BARN_CSV"
-    )
+    """The BARN cylinder file that $DCMPPI_BARN names.
+
+    Raises:
+      ValueError: naming both ways to give the file when the variable is not set.
+    """
+    fix = f"pass path=FILE (dcmppi run, bench: --task-param path=FILE) or set {BARN_ENV}=FILE"
+    if not os.environ.get(BARN_ENV):
+        raise ValueError(
+            f"layout world=N needs the BARN file barn_cylinders.csv, not part of dcmppi: {fix}"
+        )
+    path = pathlib.Path(os.environ[BARN_ENV])
+    if not path.is_file():
+        raise ValueError(f"{BARN_ENV}={path}: no such file; {fix}")
+    return path
 
 
 def read_layout(path, world=None) -> LayoutFile:
@@ -200,7 +204,8 @@ class Layout(navigation.Navigation):
     """A fixed world read from a layout file (the same world every episode; noise still random).
 
     Args:
-      path: CSV or JSON layout file (see the module docstring); default: the BARN file.
+      path: CSV or JSON layout file (see the module docstring); default: the BARN file
+        ($DCMPPI_BARN).
       world: BARN world index (0-299) for multi-world CSVs.
       start: (x, y, yaw); goal: (x, y); map_bounds: (xmin, ymin, xmax, ymax): override the file.
     """
@@ -212,9 +217,9 @@ class Layout(navigation.Navigation):
         if path is None and world is None:
             raise ValueError("layout needs path=<CSV or JSON file> or world=<BARN world index>")
         layout = read_layout(barn_path() if path is None else path, world)
-        barn = world is not None
-        start = _pick("start", 3, start, layout.start, BARN_START if barn else None)
-        goal = _pick("goal", 2, goal, layout.goal, BARN_GOAL if barn else None)
+        is_barn = world is not None
+        start = _pick("start", 3, start, layout.start, BARN_START if is_barn else None)
+        goal = _pick("goal", 2, goal, layout.goal, BARN_GOAL if is_barn else None)
         if start is None or goal is None:
             raise ValueError(
                 "layout: pass start=(x, y, yaw) and goal=(x, y) in task_kwargs, or "
@@ -238,10 +243,25 @@ class Layout(navigation.Navigation):
                 f"map_bounds must be (xmin, ymin, xmax, ymax) with min < max, got {tuple(bounds)}"
             )
         if self._time_limit is None:
-            self._time_limit = layout.time_limit or (BARN_TIME_LIMIT if barn else None)
+            self._time_limit = layout.time_limit or (BARN_TIME_LIMIT if is_barn else None)
         self._world = worlds.make_world(start, goal, static=layout.cylinders, bounds=bounds)
         self.num_static = len(self._world.static)
         self._bounds = bounds
+        self._barn = is_barn
+
+    @property
+    def optimal_time(self) -> float | None:
+        """BARN's optimal time [s] of a BARN world: the shortest collision-free path length for
+        this robot radius (tasks/barn.py, planned once per world and process) over the Jackal's
+        top speed BARN_TOP_SPEED, as the challenge divides by 2 m/s whatever speed a robot
+        runs at. None for other layouts and for a world with no path for this radius."""
+        if not self._barn:
+            return None
+        w = self._world
+        length = barn.shortest_path_length(
+            w.static, self.robot_radius, w.start[:2], w.goal, w.map_bounds
+        )
+        return length / BARN_TOP_SPEED if math.isfinite(length) else None
 
     @property
     def map_bounds(self):

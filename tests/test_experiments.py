@@ -14,7 +14,7 @@ MINIMAL = 'task = "blocked"\nepisodes = 2\n[[rows]]\ncontroller = "mppi"\n'
 
 
 def test_shipped_experiments_hold_the_papers_setup():
-    assert experiment_names() == ["dynamic", "dynamic-dubins", "dynamic-ekf", "static"]
+    assert experiment_names() == ["barn", "dynamic", "dynamic-dubins", "dynamic-ekf", "static"]
     static = load_experiment("static")
     assert (static.task, static.episodes, static.base_seed) == ("forest", 1000, 2024)
     assert static.labels == ("mppi", "tube", "clustered")
@@ -87,7 +87,7 @@ def test_a_file_by_path_takes_its_name_from_the_stem(tmp_path):
     assert load_experiment(str(path)).name == "other"
     with pytest.raises(ValueError, match="cannot read"):
         load_experiment(str(tmp_path / "missing.toml"))
-    with pytest.raises(ValueError, match="unknown experiment 'nope'; valid: dynamic"):
+    with pytest.raises(ValueError, match="unknown experiment 'nope'; valid: barn, dynamic"):
         load_experiment("nope")
 
 

@@ -33,18 +33,23 @@ def test_loads_a_barn_world_with_the_challenge_protocol(world):
 
 
 def test_barn_file_found_through_the_environment_variable(monkeypatch):
-    monkeypatch.setenv("DCMPPI_BARN_CSV", str(BARN))
+    monkeypatch.setenv("DCMPPI_BARN", str(BARN))
     env = tasks.load("layout", {"world": 1})
     np.testing.assert_allclose(env.reset().observation["static_obstacles"], barn_world(1))
+    monkeypatch.delenv("DCMPPI_BARN")
+    with pytest.raises(ValueError, match=r"not part of dcmppi: pass path=FILE .* DCMPPI_BARN="):
+        tasks.load("layout", {"world": 1})
 
 
 def test_full_barn_file_when_available():
+    """The shipped excerpt is the BARN file's worlds 0 and 1 (with $DCMPPI_BARN set)."""
     try:
         path = layout.barn_path()
     except ValueError:
-        pytest.skip("../shared/barn/barn_cylinders.csv not available")
-    cylinders = layout.read_layout(path, world=0).cylinders
-    np.testing.assert_allclose(cylinders, barn_world(0))
+        pytest.skip("the BARN file is not available (set DCMPPI_BARN)")
+    for world in (0, 1):
+        cylinders = layout.read_layout(path, world=world).cylinders
+        np.testing.assert_allclose(cylinders, barn_world(world))
 
 
 def test_csv_without_header_and_start_goal_from_kwargs(tmp_path):

@@ -19,6 +19,7 @@ def _rows(counts):
                 collision=failed, outcome="collision" if failed else "goal", steps=100,
                 ctrl_ms_mean=5.0, time_to_goal=None if failed else 30.0, path_length=30.0,
                 ess_mean=None, clusters_mean=None, fallback_share=None, tube_deviation_p95=None,
+                nav_score=None,
             ))  # fmt: skip
     rows.append({**rows[0], "status": "error", "env_index": 99})  # not an episode
     return rows

@@ -30,6 +30,7 @@ def _result(outcome, steps=100, ms=1.0):
         "failure": outcome != "goal",
         "steps": steps,
         "time_to_goal": 10.0 if outcome == "goal" else None,
+        "nav_score": None,
         "path_length": 10.0,
         "min_clearance": 0.3,
         "ctrl_ms_mean": ms,
@@ -166,7 +167,7 @@ def test_a_database_of_another_schema_is_refused(tmp_path):
         c.execute("CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)")
         c.execute("INSERT INTO meta VALUES ('schema', '1'), ('config', '{}')")
     for config in (None, CONFIG):
-        with pytest.raises(ValueError, match="results schema '1', this dcmppi writes 2; use a new"):
+        with pytest.raises(ValueError, match="results schema '1', this dcmppi writes 3; use a new"):
             ResultsDB(path, config)
 
 

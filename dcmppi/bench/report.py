@@ -2,9 +2,11 @@
 
 Statistics: failure rates with 95 % Wilson score intervals; paired comparisons of each row
 against the experiment's reference row on the same environments with McNemar's exact test on
-collisions; the paper's figures beside ours where the experiment gives them. A database that
-is still being written, or holds fewer episodes for some rows than for others or than the
-experiment asked for, gets a notice with the counts per row.
+collisions; the paper's figures beside ours where the experiment gives them. Episodes with a
+navigation score (BARN worlds) get a table of their own: success rate (Wilson) and mean score
+with a 95 % percentile-bootstrap interval, and the paired score difference to the reference.
+A database that is still being written, or holds fewer episodes for some rows than for others
+or than the experiment asked for, gets a notice with the counts per row.
 """
 
 from __future__ import annotations
@@ -18,7 +20,24 @@ from pathlib import Path
 
 from dcmppi.bench.experiments import Experiment, Row
 from dcmppi.bench.results import COLUMN_NAMES, ResultsDB
-from dcmppi.bench.stats import fmt, noise_order, paired, per_step, row_order, summarize
+from dcmppi.bench.stats import (
+    fmt,
+    noise_order,
+    paired,
+    paired_scores,
+    per_step,
+    row_order,
+    summarize,
+)
+
+SCORE_NOTE = (
+    "Success: the goal reached without collision within the time limit; 95 % Wilson interval, "
+    "the published success rate in parentheses. Navigation score (BARN): success x "
+    "optimal_time / clip(time, 2 optimal_time, 8 optimal_time), optimal_time = shortest "
+    "collision-free path length / 2 m/s (dcmppi.tasks.barn); mean over episodes with a 95 % "
+    "percentile-bootstrap interval (10,000 resamples). Score - reference: mean paired "
+    "difference over the environments both rows scored, bootstrap interval over environments."
+)
 
 
 def groups(rows: list[dict], exp: Experiment) -> list[tuple[str, str]]:
@@ -63,6 +82,43 @@ def table(rows: list[dict], exp: Experiment) -> str:
                 else ""
             )
             line += f" {vs} |"
+        lines.append(line)
+    return "\n".join(lines)
+
+
+def score_table(rows: list[dict], exp: Experiment) -> str:
+    """BARN's metrics per (noise, row): success % with its Wilson interval and the published
+    success rate (100 - the paper's failure %), the mean navigation score with its bootstrap
+    interval, and the paired score difference to the reference row. '' without scores."""
+    stats = summarize(rows)
+    scored = [g for g in groups(rows, exp) if stats[g]["scored"]]
+    if not scored:
+        return ""
+    ref = exp.reference
+    head = (
+        "| Noise | Row | Episodes | Success % [95 % CI] (published) | Navigation score [95 % CI] |"
+    )
+    rule = "|---|---|---:|---|---|"
+    if ref:
+        head += f" Score - {ref} [95 % CI] |"
+        rule += "---|"
+    lines = [head, rule]
+    for noise, label in scored:
+        s = stats[(noise, label)]
+        paper = exp.paper(noise, label).failure_pct
+        published = "-" if paper is None else f"{100 - paper:g}"
+        lo, hi = s["success_ci_pct"]
+        slo, shi = s["nav_score_ci"]
+        episodes = str(s["scored"])
+        if s["scored"] < s["episodes"]:
+            episodes += f" of {s['episodes']}"
+        line = (
+            f"| {noise} | {label} | {episodes} | {s['goal_pct']:.1f} [{lo:.1f}, {hi:.1f}] "
+            f"({published}) | {s['nav_score']:.3f} [{slo:.3f}, {shi:.3f}] |"
+        )
+        if ref:
+            d = paired_scores(rows, noise, label, ref) if label != ref else None
+            line += f" {d['diff']:+.3f} [{d['ci'][0]:+.3f}, {d['ci'][1]:+.3f}] |" if d else " |"
         lines.append(line)
     return "\n".join(lines)
 
@@ -179,8 +235,9 @@ def write_report(db_path: str | Path, out_dir: str | Path, plots: bool = True) -
         writer_csv.writeheader()
         writer_csv.writerows(rows)
     warning = notice(rows, exp, writer)
+    scores = score_table(rows, exp)
     text = "\n\n".join(
-        part for part in (warning, table(rows, exp), diagnostics_table(rows, exp)) if part
+        part for part in (warning, table(rows, exp), scores, diagnostics_table(rows, exp)) if part
     )
     ref = f"the reference row `{exp.reference}`" if exp.reference else "no reference row"
     md = [
@@ -195,6 +252,7 @@ def write_report(db_path: str | Path, out_dir: str | Path, plots: bool = True) -
         "environments both rows finished; 'a vs b discordant' counts environments where only "
         f"this row / only the reference collided. Paper figures in parentheses. {exp.paper_note}",
         "",
+        *(["## Navigation score", "", scores, "", SCORE_NOTE, ""] if scores else []),
         "## Controller diagnostics",
         "",
         diagnostics_table(rows, exp),

@@ -6,6 +6,9 @@ rows already there. A database is bound to one experiment configuration (task, i
 parameters, the shared controller parameters, the base seed and each row's controller and
 parameters); opening it with another raises `ConfigMismatch` instead of mixing rows. A
 configuration with rows of new labels extends it.
+
+A database of an older schema that lacks only columns added since (`ADDED`) is read with those
+columns NULL, and opening it to write adds them: its rows are kept.
 """
 
 from __future__ import annotations
@@ -17,7 +20,8 @@ import sqlite3
 import time
 from pathlib import Path
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
+ADDED = {3: ("nav_score",)}  # columns that each schema version added to the one before
 
 COLUMNS = (
     # key
@@ -36,6 +40,7 @@ COLUMNS = (
     ("failure", "INTEGER"),
     ("steps", "INTEGER"),
     ("time_to_goal", "REAL"),
+    ("nav_score", "REAL"),  # BARN's navigation score (NULL outside BARN worlds)
     ("path_length", "REAL"),
     ("min_clearance", "REAL"),
     ("ctrl_ms_mean", "REAL"),
@@ -112,11 +117,17 @@ class ResultsDB:
                     [("schema", str(SCHEMA_VERSION)), ("config", _canonical(config))],
                 )
             stored = {"schema": str(SCHEMA_VERSION), "config": _canonical(config)}
-        if stored.get("schema") != str(SCHEMA_VERSION) or "config" not in stored:
+        schema = stored.get("schema")
+        older = [str(v - 1) for v in ADDED if v <= SCHEMA_VERSION]
+        if (schema != str(SCHEMA_VERSION) and schema not in older) or "config" not in stored:
             raise ValueError(
-                f"{self.path}: results schema {stored.get('schema')!r}, this dcmppi writes "
+                f"{self.path}: results schema {schema!r}, this dcmppi writes "
                 f"{SCHEMA_VERSION}; use a new --db path"
             )
+        if schema != str(SCHEMA_VERSION) and config is not None:
+            self._upgrade(int(schema))
+        present = {r[1] for r in db.execute("PRAGMA table_info(episodes)")}
+        self._columns = [n for n in COLUMN_NAMES if n in present]
         self.config = json.loads(stored["config"])
         self._meta = {k: json.loads(v) for k, v in stored.items() if k not in ("schema", "config")}
         if config is not None:
@@ -124,6 +135,17 @@ class ResultsDB:
             if merged != self.config:
                 self._set("config", merged)
                 self.config = merged
+
+    def _upgrade(self, schema: int) -> None:
+        """Add the (nullable) columns of the schema versions after `schema`."""
+        types = dict(COLUMNS)
+        with self._db:
+            for version in range(schema + 1, SCHEMA_VERSION + 1):
+                for name in ADDED[version]:
+                    self._db.execute(f"ALTER TABLE episodes ADD COLUMN {name} {types[name]}")
+            self._db.execute(
+                "UPDATE meta SET value = ? WHERE key = 'schema'", (str(SCHEMA_VERSION),)
+            )
 
     def done(self) -> set[tuple[str, str, int]]:
         """Keys (noise, label, env_index) already finished (errored ones run again)."""
@@ -166,11 +188,12 @@ class ResultsDB:
             )
 
     def rows(self) -> list[dict]:
-        """All episode rows, ordered by key."""
+        """All episode rows, ordered by key (None in columns an older database lacks)."""
         cur = self._db.execute(
-            f"SELECT {', '.join(COLUMN_NAMES)} FROM episodes ORDER BY noise, label, env_index"
+            f"SELECT {', '.join(self._columns)} FROM episodes ORDER BY noise, label, env_index"
         )
-        return [dict(zip(COLUMN_NAMES, r, strict=True)) for r in cur]
+        empty = dict.fromkeys(COLUMN_NAMES)
+        return [{**empty, **dict(zip(self._columns, r, strict=True))} for r in cur]
 
     @property
     def experiment(self) -> dict | None:

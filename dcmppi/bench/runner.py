@@ -258,15 +258,22 @@ class Episode:
 
     def result(self) -> dict:
         """The metrics of the finished episode (see `run_episode`)."""
+        from dcmppi.tasks.barn import navigation_score
+
         path = np.asarray(self.path)
         outcome = self.env.task.outcome
         ctrl_ms = 1e3 * np.asarray(self.ctrl_s)
+        elapsed = float(self.env.physics.data.time)
+        optimal = getattr(self.env.task, "optimal_time", None)
         return {
             "outcome": outcome,
             "collision": outcome == "collision",
             "failure": outcome != "goal",
             "steps": len(self.ctrl_s),
-            "time_to_goal": float(self.env.physics.data.time) if outcome == "goal" else None,
+            "time_to_goal": elapsed if outcome == "goal" else None,
+            "nav_score": None
+            if optimal is None
+            else navigation_score(outcome == "goal", elapsed, optimal),
             "path_length": float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1))),
             "min_clearance": float(self.env.task.min_clearance),
             "ctrl_ms_mean": float(ctrl_ms.mean()) if ctrl_ms.size else 0.0,
@@ -292,11 +299,12 @@ def run_episode(
 
     Returns:
       A dict: outcome ("goal" | "collision" | "left_map" | "time_limit"), collision, failure,
-      steps, time_to_goal [s] (None unless reached), path_length [m], min_clearance [m],
-      ctrl_ms_mean, ctrl_ms_p95 (controller time per step, first-call costs excluded by
-      `warm_up`), env_ms_mean, the diagnostics ess_mean, clusters_mean, fallback_share,
-      tube_deviation_p95 [m] (None where the controller records none; see `Diagnosis`),
-      wall_s.
+      steps, time_to_goal [s] (None unless reached), nav_score (BARN's navigation score where
+      the task gives an `optimal_time`, i.e. a BARN world; else None), path_length [m],
+      min_clearance [m], ctrl_ms_mean, ctrl_ms_p95 (controller time per step, first-call
+      costs excluded by `warm_up`), env_ms_mean, the diagnostics ess_mean, clusters_mean,
+      fallback_share, tube_deviation_p95 [m] (None where the controller records none; see
+      `Diagnosis`), wall_s.
     """
     episode = Episode(spec)
     if on_step is not None:

@@ -1,4 +1,5 @@
-"""Statistics of episode rows: failure rates with Wilson intervals, paired McNemar tests.
+"""Statistics of episode rows: failure rates with Wilson intervals, paired McNemar tests, and
+percentile-bootstrap intervals of mean navigation scores (BARN), alone and paired.
 
 Shared by the report's tables and its plots.
 """
@@ -8,9 +9,12 @@ from __future__ import annotations
 import math
 from collections import defaultdict
 
+import numpy as np
+
 from dcmppi.control.defaults import NOISE_PROFILES
 
 Z95 = 1.959963984540054
+BOOTSTRAP = 10_000  # resamples of a bootstrap interval
 
 
 def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float]:
@@ -26,6 +30,24 @@ def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float]:
     return lo, hi
 
 
+def bootstrap_mean(values, resamples: int = BOOTSTRAP, seed: int = 0) -> tuple[float, float]:
+    """95 % percentile-bootstrap interval of the mean of `values` (n,); the same values give the
+    same interval (fixed seed). (nan, nan) for no values."""
+    x = np.asarray(values, dtype=np.float64)
+    if not x.size:
+        return (math.nan, math.nan)
+    rng = np.random.default_rng(seed)
+    chunk = max(1, 2_000_000 // x.size)  # resamples per draw: bounded memory
+    means = np.concatenate(
+        [
+            x[rng.integers(0, x.size, (min(chunk, resamples - i), x.size))].mean(axis=1)
+            for i in range(0, resamples, chunk)
+        ]
+    )
+    lo, hi = np.quantile(means, [0.025, 0.975])
+    return float(lo), float(hi)
+
+
 def mcnemar_exact(b: int, c: int) -> float:
     """Two-sided exact McNemar p-value for discordant pair counts b and c."""
     n = b + c
@@ -36,10 +58,12 @@ def mcnemar_exact(b: int, c: int) -> float:
 
 
 def summarize(rows: list[dict]) -> dict[tuple[str, str], dict]:
-    """Per (noise, row label): episodes, errors, outcome counts and rates with the failure
-    rate's CI, controller ms/step, and the controller diagnostics (None where not recorded):
-    ESS and clusters per step and the fallback share, each a mean over all steps, and the mean
-    over episodes of Tube-MPPI's 95th-percentile deviation from its nominal state."""
+    """Per (noise, row label): episodes, errors, outcome counts and rates with the failure and
+    success (goal) rates' CIs, controller ms/step, the controller diagnostics (None where not
+    recorded): ESS and clusters per step and the fallback share, each a mean over all steps,
+    and the mean over episodes of Tube-MPPI's 95th-percentile deviation from its nominal
+    state; and the number of episodes with a navigation score, their mean score and its
+    bootstrap CI (None without scores)."""
     groups = defaultdict(list)
     for r in rows:
         groups[(r["noise"], r["label"])].append(r)
@@ -50,6 +74,7 @@ def summarize(rows: list[dict]) -> dict[tuple[str, str], dict]:
         failures = sum(r["failure"] for r in ok)
         goals = sum(r["outcome"] == "goal" for r in ok)
         devs = [r["tube_deviation_p95"] for r in ok if r["tube_deviation_p95"] is not None]
+        scores = [r["nav_score"] for r in ok if r["nav_score"] is not None]
         out[key] = {
             "episodes": n,
             "errors": len(group) - n,
@@ -68,6 +93,10 @@ def summarize(rows: list[dict]) -> dict[tuple[str, str], dict]:
             "clusters": per_step(ok, "clusters_mean"),
             "fallback_pct": _pct(per_step(ok, "fallback_share")),
             "tube_deviation_p95": (sum(devs) / len(devs)) if devs else None,
+            "success_ci_pct": tuple(100 * x for x in wilson(goals, n)),
+            "scored": len(scores),
+            "nav_score": mean(scores) if scores else None,
+            "nav_score_ci": bootstrap_mean(scores) if scores else None,
         }
     return out
 
@@ -102,6 +131,21 @@ def paired(rows: list[dict], noise: str, a: str, b: str) -> dict | None:
         "only_b": only_b,
         "p": mcnemar_exact(only_a, only_b),
     }
+
+
+def paired_scores(rows: list[dict], noise: str, a: str, b: str) -> dict | None:
+    """Mean navigation score of row a minus row b over the environments both scored, with its
+    95 % percentile-bootstrap interval over environments; None when they share none."""
+    by = {(r["label"], r["env_index"]): r["nav_score"] for r in rows if r["noise"] == noise}
+    envs = sorted(
+        i
+        for (c, i), score in by.items()
+        if c == a and score is not None and by.get((b, i)) is not None
+    )
+    if not envs:
+        return None
+    diffs = [by[(a, i)] - by[(b, i)] for i in envs]
+    return {"pairs": len(envs), "diff": mean(diffs), "ci": bootstrap_mean(diffs)}
 
 
 def mean(xs):

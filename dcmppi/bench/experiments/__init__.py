@@ -2,9 +2,10 @@
 
 Environment i of an experiment has one seed, shared by every row and noise profile: the same
 world, the same start and goal, the same noise sequence and the same controller sampling
-stream. That makes every comparison paired. The shipped experiments (static, dynamic,
-dynamic-dubins) are TOML files beside this module; `load_experiment` takes their names or a
-path. The file format: `dcmppi.bench.experiments.schema`.
+stream. That makes every comparison paired. An experiment with `env_param` (e.g. "world", the
+BARN world of the `layout` task) also sets that task parameter to i in environment i. The
+shipped experiments (static, dynamic, dynamic-dubins, barn) are TOML files beside this module;
+`load_experiment` takes their names or a path. The file format: `dcmppi.bench.experiments.schema`.
 """
 
 from __future__ import annotations
@@ -58,8 +59,8 @@ class Row:
 class Experiment:
     """An experiment: task, rows, noise profiles, environment count, parameters.
 
-    `task`, `task_params`, `controller_params` (shared by every row), `base_seed` and each
-    row's controller and params are what a results database is bound to (`config`);
+    `task`, `task_params`, `controller_params` (shared by every row), `base_seed`, `env_param`
+    and each row's controller and params are what a results database is bound to (`config`);
     `selected` rows, `noises` and `episodes` only choose which of its episodes to run, so a
     database can be extended with more of them.
     """
@@ -72,6 +73,7 @@ class Experiment:
     base_seed: int = 0
     task_params: dict = dataclasses.field(default_factory=dict)
     controller_params: dict = dataclasses.field(default_factory=dict)
+    env_param: str | None = None  # task parameter set to the environment index
     reference: str | None = None
     description: str = ""
     paper_note: str = ""
@@ -95,6 +97,7 @@ class Experiment:
             "noises": list(self.noises),
             "episodes": self.episodes,
             "base_seed": self.base_seed,
+            **({"env_param": self.env_param} if self.env_param else {}),
             **({"reference": self.reference} if self.reference else {}),
             "paper_note": self.paper_note,
             "task_params": self.task_params,
@@ -125,6 +128,7 @@ class Experiment:
         return {
             "task": self.task,
             "base_seed": self.base_seed,
+            **({"env_param": self.env_param} if self.env_param else {}),
             "task_params": self.task_params,
             "controller_params": self.controller_params,
             "rows": {r.label: {"controller": r.controller, "params": r.params} for r in self.rows},
@@ -133,12 +137,15 @@ class Experiment:
     def spec(self, noise: str, label: str, index: int) -> EpisodeSpec:
         """The episode of row `label` in environment `index` under `noise`."""
         row = self.row(label)
+        task_params = dict(self.task_params)
+        if self.env_param:
+            task_params[self.env_param] = index
         return EpisodeSpec(
             task=self.task,
             controller=row.controller,
             noise=noise,
             seed=self.seed(index),
-            task_params=dict(self.task_params),
+            task_params=task_params,
             controller_params=dict(row.params),
             shared_params=dict(self.controller_params),
         )
@@ -188,6 +195,11 @@ class Experiment:
 
     def with_params(self, task_params: dict, controller_params: dict) -> Experiment:
         """Task and shared controller parameters added from the command line."""
+        if self.env_param in task_params:
+            raise ValueError(
+                f"--task-param {self.env_param}=...: experiment {self.name} sets "
+                f"{self.env_param} to the environment index; choose environments with --episodes"
+            )
         return dataclasses.replace(
             self,
             task_params={**self.task_params, **task_params},

@@ -6,6 +6,8 @@ task = "forest"               # a dcmppi task (`dcmppi tasks`)
 noises = ["none", "control"]  # optional, default ["none"]
 episodes = 100                # environments, >= 1
 base_seed = 2024              # optional, default 0; environment i's seed: (base_seed, i)
+env_param = "world"           # optional: task parameter set to i in environment i (e.g. the
+                              # BARN world); the seed then drives only noise and sampling
 reference = "mppi"            # optional: the row every other row is compared with (McNemar)
 paper_note = "..."            # optional: where the paper's figures come from
 [task_params]                 # optional: task keyword arguments (agent, time_limit, ...)
@@ -31,6 +33,7 @@ TOP_KEYS = {
     "noises": list,
     "episodes": int,
     "base_seed": int,
+    "env_param": str,
     "reference": str,
     "paper_note": str,
     "task_params": dict,
@@ -136,6 +139,18 @@ def parse(data: dict, source: str, resolve: bool = True) -> dict:
             )
     if len(set(noises)) < len(noises):
         raise ExperimentError(source, "noises", f"repeats a profile: {list(noises)}")
+    env_param = data.get("env_param")
+    if env_param is not None:
+        if env_param in RESERVED["task_params"] or not env_param.isidentifier():
+            raise ExperimentError(
+                source, "env_param", f"{env_param!r}: name a task parameter (e.g. world)"
+            )
+        if env_param in data.get("task_params", {}):
+            raise ExperimentError(
+                source,
+                f"task_params.{env_param}",
+                f"set per environment (env_param = {env_param!r}); remove it",
+            )
     if not data["rows"]:
         raise ExperimentError(source, "rows", "empty; give at least one [[rows]] table")
     rows = tuple(_row(source, i, row, resolve) for i, row in enumerate(data["rows"]))
@@ -156,6 +171,7 @@ def parse(data: dict, source: str, resolve: bool = True) -> dict:
         "noises": noises,
         "episodes": episodes,
         "base_seed": base_seed,
+        "env_param": env_param,
         "task_params": _params(
             source, "task_params", data.get("task_params", {}), RESERVED["task_params"]
         ),

@@ -396,7 +396,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-plots", action="store_true", help="tables and CSV only")
 
     # `timing` parses its own options (dcmppi.bench.timing.main); listed here for --help.
-    sub.add_parser("timing", help="controller ms per step on fixed problems (--json, --steps)")
+    sub.add_parser(
+        "timing",
+        help="controller ms per step on fixed problems (--json, --steps, --against pytorch_mppi)",
+    )
     return parser
 
 

@@ -245,11 +245,16 @@ def main(argv=None):
         choices=["pytorch_mppi"],
         help="time pytorch_mppi beside our mppi on the same problem (needs the extra `peer`)",
     )
+    parser.add_argument(
+        "--profile", action="store_true", help="where one step's time goes, in microseconds"
+    )
     args = parser.parse_args(argv)
     if args.steps < 5:
         parser.error("--steps must be >= 5")
     if args.against:
         return against(args)
+    if args.profile:
+        return profile(args)
     with threadpool_limits(1):
         times = time_cases(CASES, args.steps)
     rows = [
@@ -318,3 +323,108 @@ def against(args):
 
 if __name__ == "__main__":
     sys.exit(main())
+
+
+# The parts of a step that `--profile` times: (label, object, attribute) of the functions it
+# wraps. Nested parts (under "evaluate") are also in their parent's time.
+def _parts():
+    from dcmppi.control import clustered, controllers, costs, mppi
+    from dcmppi.control.agents import dubins
+
+    return [
+        ("sample", controllers.Controller, "sample"),
+        ("controls (project)", controllers.Controller, "controls"),
+        ("evaluate", controllers.Controller, "evaluate"),
+        ("  rollout", dubins.Dubins, "rollout"),
+        ("  goal distance", controllers, "goal_distance"),
+        ("  cost-map count", costs.OccupancyGrid, "count"),
+        ("  obstacle tracks", costs.TrackIndex, "count"),
+        ("importance term", controllers.Controller, "importance"),
+        ("Alg. 1 update", mppi, "mppi_update"),
+        ("features", clustered, "cluster_features"),
+        ("DBSCAN", clustered, "cluster_labels"),
+        ("cluster updates", clustered, "cluster_updates"),
+    ]
+
+
+PROFILE_CASES = (
+    Case("mppi", "mppi", "forest"),
+    Case("clustered", "clustered", "forest"),
+    Case("dc", "dc", "crowd"),
+)
+
+
+def profile(args):
+    """`--profile`: the median over steps of the microseconds spent in each part of a step
+    (dubins; the timers' own cost included), beside the median step, for mppi and clustered on
+    the forest and dc in the crowd."""
+    results = {}
+    for case in PROFILE_CASES:
+        loop = ClosedLoop(case.controller, case.problem, args.steps, **case.params)
+        skip = 3  # the first steps build the cost map and load the compiled kernels
+        steps = args.steps - skip
+        timer = _timed(_parts(), steps)
+        with threadpool_limits(1):
+            for _ in range(skip):
+                loop.step()
+            with timer:
+                for i in range(steps):
+                    timer.step = i
+                    loop.step()
+        results[case.label] = {
+            "problem": case.problem,
+            "step_us": float(np.median(np.array(loop.times[skip:]) * 1e6)),
+            "parts": {
+                label: {"median_us_per_step": float(np.median(per_step) * 1e6), "calls": calls}
+                for label, (per_step, calls) in timer.result().items()
+            },
+        }
+    if args.json:
+        print(json.dumps(results, indent=2))
+        return 0
+    print(f"dcmppi timing --profile: one thread, {args.steps} steps, median us per step")
+    for label, r in results.items():
+        print(f"{label} ({r['problem']}): step {r['step_us']:.0f} us")
+        for name, part in r["parts"].items():
+            us, calls = part["median_us_per_step"], part["calls"]
+            print(f"  {name:<20} {us:7.1f} us ({calls} call{'s' if calls > 1 else ''})")
+    return 0
+
+
+class _timed:
+    """Context manager: wraps each (label, owner, attribute) so that the durations of its calls
+    add up per step (the step is `self.step`); restores the originals on exit."""
+
+    def __init__(self, parts, steps):
+        self.parts, self.step, self.saved = parts, 0, []
+        self.spent = {label: np.zeros(steps) for label, _, _ in parts}
+        self.calls = {label: np.zeros(steps, dtype=int) for label, _, _ in parts}
+
+    def __enter__(self):
+        for label, owner, name in self.parts:
+            original = getattr(owner, name)
+            self.saved.append((owner, name, original))
+            setattr(owner, name, self._wrap(original, label))
+        return self
+
+    def _wrap(self, function, label):
+        def timed(*args, **kwargs):
+            t0 = time.perf_counter()
+            out = function(*args, **kwargs)
+            self.spent[label][self.step] += time.perf_counter() - t0
+            self.calls[label][self.step] += 1
+            return out
+
+        return timed
+
+    def __exit__(self, *exc):
+        for owner, name, original in reversed(self.saved):
+            setattr(owner, name, original)
+
+    def result(self):
+        """{label: (seconds per step (steps,), typical calls per step)} of the parts called."""
+        return {
+            label: (self.spent[label], int(np.median(self.calls[label])))
+            for label in self.spent
+            if self.calls[label].any()
+        }

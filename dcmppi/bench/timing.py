@@ -10,12 +10,12 @@ Problems (deterministic, built here, SPEC defaults K = 500, N = 50):
   steps in 3) and the LQR feedback runs too: Tube-MPPI's most expensive step. Without the push
   the nominal equals the real state after every reset, so one batch of K rollouts suffices and
   the feedback is zero.
-- crowd: 100 moving cylinders drawn per SPEC section 4 (radius 1 m, speeds U(0.5, 1.5) m/s,
+- crowd: 100 moving cylinders as in the crowd task (radius 1 m, speeds U(0.5, 1.5) m/s,
   turn rates U(-0.5, 0.5) rad/s, reflecting off the boundary); `dc` with P = 25 (and the others
   for reference).
 BLAS and OpenMP pools are limited to one thread; the figures are for one core. The cases of a
-problem run interleaved (one step of each in turn), so load changes on a shared machine hit them
-alike.
+problem run interleaved in blocks of consecutive steps, so load changes on a shared machine hit
+them alike.
 """
 
 import argparse
@@ -142,21 +142,27 @@ class ClosedLoop:
         return float(np.median(times)), float(np.percentile(times, 95))
 
 
-def time_cases(cases, steps):
+BLOCK = 10  # consecutive steps of one case before the next case's
+
+
+def time_cases(cases, steps, block=BLOCK):
     """Median and p95 ms per step of every case (see CASES).
 
-    The closed loops of one problem family (forest, crowd) run interleaved, one step of each
-    case in turn, so a change in machine load affects them alike and the ratios stay meaningful
-    on a busy machine; the families run one after the other.
+    The closed loops of one problem family (forest, crowd) run interleaved in blocks of
+    `block` steps, each case in turn, so a change in machine load affects them alike and the
+    ratios stay meaningful on a busy machine, while a block's steps find their data in the
+    caches as consecutive control steps do (block = 1: every step after another controller's,
+    cold, about 1.5 x slower); the families run one after the other.
     """
     loops = [ClosedLoop(c.controller, c.problem, steps, **c.params) for c in cases]
     families = {}
     for loop, case in zip(loops, cases, strict=True):
         families.setdefault(case.problem.split("+")[0], []).append(loop)
     for family in families.values():
-        for _ in range(steps):
+        for start in range(0, steps, block):
             for loop in family:
-                loop.step()
+                for _ in range(min(block, steps - start)):
+                    loop.step()
     return [loop.summary() for loop in loops]
 
 
@@ -241,6 +247,9 @@ def main(argv=None):
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--steps", type=int, default=100, help="control steps per case")
     parser.add_argument(
+        "--block", type=int, default=BLOCK, help="consecutive steps of a case (1: cold caches)"
+    )
+    parser.add_argument(
         "--against",
         choices=["pytorch_mppi"],
         help="time pytorch_mppi beside our mppi on the same problem (needs the extra `peer`)",
@@ -251,12 +260,14 @@ def main(argv=None):
     args = parser.parse_args(argv)
     if args.steps < 5:
         parser.error("--steps must be >= 5")
+    if args.block < 1:
+        parser.error("--block must be >= 1")
     if args.against:
         return against(args)
     if args.profile:
         return profile(args)
     with threadpool_limits(1):
-        times = time_cases(CASES, args.steps)
+        times = time_cases(CASES, args.steps, args.block)
     rows = [
         {"case": c.label, "controller": c.controller, "problem": c.problem, "params": c.params,
          "median_ms": median, "p95_ms": p95}
@@ -271,6 +282,7 @@ def main(argv=None):
             else f"<= {c.target_ratio} x {c.reference}" if c.target_ratio else ""
         )  # fmt: skip
     info = {"K": defaults.K, "N": defaults.N, "P": defaults.P, "steps": args.steps}
+    info["block"] = args.block
     info["machine"] = (
         f"{platform.processor() or platform.machine()}, python {platform.python_version()}"
     )
@@ -278,7 +290,8 @@ def main(argv=None):
         print(json.dumps({"settings": info, "results": rows}, indent=2))
         return 0
     print(
-        f"dcmppi timing: K={info['K']} N={info['N']} P={info['P']}, one thread, {args.steps} steps"
+        f"dcmppi timing: K={info['K']} N={info['N']} P={info['P']}, one thread, {args.steps} steps "
+        f"in blocks of {args.block}"
     )
     header = f"{'case':<21} {'problem':<11} {'median ms':>9} {'p95 ms':>7} {'ratio':>6}"
     print(f"{header}  target")

@@ -1,4 +1,4 @@
-"""`crowd`: 100 moving Dubins cylinders of SPEC section 4 (paper Sec. IV-B)."""
+"""`crowd`: 100 moving Dubins cylinders (paper Sec. IV-B; docs/design.md)."""
 
 from dcmppi.control import defaults
 

@@ -1,4 +1,4 @@
-"""`forest`: the static random forest of SPEC section 4 (paper Table I)."""
+"""`forest`: the static random forest (paper Table I; docs/design.md)."""
 
 from . import navigation, worlds
 

@@ -317,7 +317,7 @@ class Physics(dm_mujoco.Physics):
 class Navigation(base.Task):
     """Drive a robot to the goal without touching an obstacle or leaving the map.
 
-    The robot is an agent of SPEC section 5 (`agent`: "dubins" by default, "unicycle",
+    The robot is an agent of docs/design.md (`agent`: "dubins" by default, "unicycle",
     "holonomic"; its parameters such as v_max go alongside), simulated by its MuJoCo plant
     (tasks/robots.py).
     Action: (nu,) the agent's controls (dubins: the turn rate omega; unicycle: v, omega;

@@ -1,4 +1,4 @@
-"""The MuJoCo plant of each agent (SPEC section 5): its MJCF and how controls become commands.
+"""The MuJoCo plant of each agent (docs/design.md): its MJCF and how controls become commands.
 
 The planners' analytic model of an agent is `dcmppi.control.agents` (names, bounds, defaults);
 its plant here is a robot file in models/robots/ attached to the arena, with three velocity

@@ -13,7 +13,7 @@ import numpy as np
 from dcmppi.control import defaults
 from dcmppi.control.dynamics import wrap_angle
 
-# Forest (SPEC section 4). FOREST_CLUSTERS is the one density knob: the number of
+# Forest (docs/design.md, Experiments). FOREST_CLUSTERS is the one density knob: the number of
 # obstacle clusters in the 75 x 50 m map. 65 is chosen so that `mppi` without noise fails
 # in about 1-2 % of environments (paper: 1.2 %). Measured with `dcmppi bench` (mppi, no
 # noise): 45 -> 1/200 failures, 60 -> 2/300, 70 -> 15/600, 75 -> 6/300.
@@ -162,7 +162,7 @@ def forest_obstacles(
     radius_range=FOREST_RADIUS_RANGE,
     bounds=None,
 ) -> np.ndarray:
-    """Clusters of overlapping cylinders of different radii (SPEC section 4).
+    """Clusters of overlapping cylinders of different radii (docs/design.md, Experiments).
 
     Each cluster has 1..cylinders_per_cluster cylinders: the first at a uniform random centre,
     each next one overlapping a random earlier one of its cluster (centre distance 30-85 % of
@@ -217,7 +217,7 @@ def generate_crowd(
     obstacle_radius=defaults.MOVING_OBSTACLE_RADIUS,
     map_size=defaults.MAP_SIZE,
 ) -> World:
-    """The dynamic crowd of SPEC section 4: uniform positions, headings, speeds and turn rates.
+    """The dynamic crowd (docs/design.md): uniform positions, headings, speeds and turn rates.
 
     Obstacles whose surface starts within CROWD_START_CLEARANCE of the start are redrawn.
     """

@@ -19,7 +19,9 @@ from dcmppi.bench.runner import EpisodeSpec, run_episode
 
 MEASUREMENT_STD = 0.1  # [m] the crowd's noise in the dynamic-ekf experiment
 NEAR = 3.0  # [m] obstacles whose surface came this close to the robot's are plotted
-CROWD_PARAMS = dict(Sigma=[1.0, 1.0, 0.1], perturbation="mixed", beta=100.0)  # SPEC section 4
+CROWD_PARAMS = dict(
+    Sigma=[1.0, 1.0, 0.1], perturbation="mixed", beta=100.0
+)  # docs/design.md, Experiments
 
 
 def ekf_spec(seed=0, measurement_std=MEASUREMENT_STD, **controller_params) -> EpisodeSpec:

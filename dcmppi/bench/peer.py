@@ -4,7 +4,7 @@ Needs the optional extra `peer` (`pip install torch==2.13.0 pytorch-mppi`, or
 `pip install "dcmppi[peer]"`); torch and pytorch_mppi are imported only when it runs.
 
 The problem is built from our controller (`make_controller("mppi", seed=0,
-perturbation="time_varying")`, SPEC defaults) and its closed loop on timing's forest, so both
+perturbation="time_varying")`, the defaults) and its closed loop on timing's forest, so both
 planners see the same numbers. Identical in the two:
 - dynamics: the exact Dubins arc per control period, a = omega dt / 2, x += v dt sinc(a)
   cos(theta + a), y += v dt sinc(a) sin(theta + a), theta += 2 a, v = 1 m/s, dt = 0.1 s

@@ -1,6 +1,6 @@
 """`dcmppi timing [--json]`: median controller time per control step on fixed problems.
 
-Problems (deterministic, built here, SPEC defaults K = 500, N = 50):
+Problems (deterministic, built here, the defaults K = 500, N = 50):
 - forest: a synthetic forest of clustered overlapping cylinders over 75 x 50 m; `mppi`,
   `clustered` and `tube` drive the analytic Dubins model across it.
 - forest+push (tube): the same, but after every step the real state is pushed along and across
@@ -69,7 +69,7 @@ def crowd(seed=0):
 
 
 def obstacle_model():
-    """The known Gaussian (v_mean, v_std, omega_mean, omega_std) of SPEC section 4."""
+    """The known Gaussian (v_mean, v_std, omega_mean, omega_std) of the crowd (docs/design.md)."""
     return np.array(
         [
             *defaults.uniform_mean_std(*defaults.OBSTACLE_SPEED_RANGE),

@@ -1,7 +1,7 @@
 """Clustered MPPI (paper Alg. 2): DBSCAN over the rollouts, Alg. 1 inside each cluster.
 
 The data point of sample k is d_k = [eps_k, S_k] (paper Sec. III-A), scaled so that one rule
-works at every step, for every agent and perturbation (SPEC section 2):
+works at every step, for every agent and perturbation (docs/design.md):
 - perturbation: for each control, the applied (projected) perturbation averaged over the
   horizon, in units of that average's sampling std (constant: sqrt(Sigma); time-varying:
   sqrt(Sigma / N); mixed: sqrt(Sigma (1 + 1 / N) / 2)). Before projection these are standard normal
@@ -18,9 +18,9 @@ of the samples around the centre of the sampling distribution for every agent; t
 for clusters below 20 % of the samples); min_samples dbscan_min_samples. Noise points (label
 -1) belong to no cluster, except the lowest-cost sample: when DBSCAN finds clusters but leaves it
 noise (a sample in the sparse tail of the sampling distribution), it and the noise points within
-the radius of it form one more cluster, so the best rollout is always a candidate (SPEC: the
-best sample is never a noise point). With no cluster at all the step falls back to Alg. 1 over
-all samples.
+the radius of it form one more cluster, so the best rollout is always a candidate (the best
+sample is never a noise point). With no cluster at all the step falls back to Alg. 1 over all
+samples.
 Each cluster's control sequence is rolled out without noise and the one with the least cost J
 is applied. Labels from dcmppi.control.dbscan (sklearn's labels, compiled with numba); the
 features, per-cluster weights and updates are numba loops (one pass over the samples).

@@ -4,8 +4,8 @@
     ctrl.reset(seed=1)
     u = ctrl.act(state, goal, static, moving, obstacle_model)   # (nu,) controls to apply
 
-Every controller accepts the shared parameters (SPEC section 3 defaults from
-dcmppi.control.defaults): agent and its parameters (dubins: v, r_min; unicycle and holonomic:
+Every controller accepts the shared parameters (defaults from dcmppi.control.defaults,
+explained in docs/design.md): agent and its parameters (dubins: v, r_min; unicycle and holonomic:
 v_max, omega_max), robot_radius, dt, K, N, lambda_, Sigma, gamma, alpha, beta, P, seed,
 perturbation, resolution, obstacle_margin, plus its own.
 """
@@ -175,7 +175,7 @@ def _positive(name, value, integer=False, allow_zero=False):
 class Controller:
     """Sampling-based controller over an analytic agent model (base of all four).
 
-    Args (keywords; SPEC section 3 defaults):
+    Args (keywords; defaults in dcmppi.control.defaults, reasons in docs/design.md):
       agent: "dubins" (default), "unicycle", "holonomic", another registered name, or an Agent
         instance; its parameters (dubins: v, r_min; others: v_max, omega_max) go alongside.
       robot_radius: collision radius [m]. dt: control period [s].

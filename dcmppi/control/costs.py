@@ -1,4 +1,4 @@
-"""Costs of SPEC section 3 and the DC-MPPI collision term (paper Eq. 30-31).
+"""Costs (docs/design.md) and the DC-MPPI collision term (paper Eq. 30-31).
 
 Every state x_0 .. x_N of a rollout pays the same cost (the paper's running cost psi for
 i = 0..N-1 and terminal cost phi = psi for x_N, Alg. 2):

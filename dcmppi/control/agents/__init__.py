@@ -1,4 +1,4 @@
-"""Analytic agent models, one per robot kind (SPEC section 5): dubins, unicycle, holonomic.
+"""Analytic agent models, one per robot kind (docs/design.md, Agents): dubins, unicycle, holonomic.
 
 Each is an `Agent` (dcmppi.control.agents.base) registered by name; `make_agent(name,
 **params)` builds one and every controller plans with one (`make_controller(..., agent=name)`).

@@ -1,4 +1,4 @@
-"""The analytic agent interface and its registry (SPEC section 5).
+"""The analytic agent interface and its registry (docs/design.md, Agents).
 
 Every agent has the planar state x = (x, y, theta) [m, m, rad] and nu controls u with box
 bounds lower <= u <= upper and, for some, a norm bound |u[norm_axes]| <= norm_limit (a

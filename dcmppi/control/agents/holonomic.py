@@ -21,7 +21,7 @@ class Holonomic(Agent):
     controls = ("u_x", "u_y", "u_theta")
     param_names = ("v_max", "omega_max")
     default_Sigma = (defaults.SIGMA_VELOCITY, defaults.SIGMA_VELOCITY, defaults.SIGMA)
-    default_perturbation = "mixed"  # SPEC section 4
+    default_perturbation = "mixed"  # docs/design.md, Experiments
     norm_axes = (0, 1)
 
     def __init__(self, v_max=defaults.HOLONOMIC_V_MAX, omega_max=defaults.HOLONOMIC_OMEGA_MAX):

@@ -1,4 +1,4 @@
-"""`unicycle`: a differential-drive robot (the BARN worlds' robots, SPEC section 5).
+"""`unicycle`: a differential-drive robot (the BARN worlds' robots).
 
 State (x, y, theta); controls the forward speed v in [0, v_max] and the turn rate omega in
 [-omega_max, omega_max]. Each control period is an exact arc with both held.

@@ -38,7 +38,9 @@ class Unicycle(Agent):
         return np.tile([self.v_max, 0.0], (N, 1))
 
     def rollout(self, x0, u, dt, starts=1):
-        return rollout_time_major(x0, u[:, 1], u[:, 0], dt, starts)
+        # u's columns are strided views of (N, 2, K): contiguous copies let the kernels vectorise
+        omega, v = np.ascontiguousarray(u[:, 1]), np.ascontiguousarray(u[:, 0])
+        return rollout_time_major(x0, omega, v, dt, starts)
 
     def step(self, state, u, dt):
         u = np.asarray(u, dtype=float)

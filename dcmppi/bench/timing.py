@@ -342,13 +342,15 @@ if __name__ == "__main__":
 # wraps. Nested parts (under "evaluate") are also in their parent's time.
 def _parts():
     from dcmppi.control import clustered, controllers, costs, mppi
-    from dcmppi.control.agents import dubins
+    from dcmppi.control.agents import dubins, holonomic, unicycle
 
     return [
         ("sample", controllers.Controller, "sample"),
         ("controls (project)", controllers.Controller, "controls"),
         ("evaluate", controllers.Controller, "evaluate"),
         ("  rollout", dubins.Dubins, "rollout"),
+        ("  rollout", unicycle.Unicycle, "rollout"),
+        ("  rollout", holonomic.Holonomic, "rollout"),
         ("  goal distance", controllers, "goal_distance"),
         ("  cost-map count", costs.OccupancyGrid, "count"),
         ("  obstacle tracks", costs.TrackIndex, "count"),
@@ -364,13 +366,16 @@ PROFILE_CASES = (
     Case("mppi", "mppi", "forest"),
     Case("clustered", "clustered", "forest"),
     Case("dc", "dc", "crowd"),
+    # the agents on mppi's problem and perturbation kind: their rollouts beside dubins'
+    Case("mppi unicycle", "mppi", "forest", {"agent": "unicycle", "perturbation": "constant"}),
+    Case("mppi holonomic", "mppi", "forest", {"agent": "holonomic", "perturbation": "constant"}),
 )
 
 
 def profile(args):
     """`--profile`: the median over steps of the microseconds spent in each part of a step
-    (dubins; the timers' own cost included), beside the median step, for mppi and clustered on
-    the forest and dc in the crowd."""
+    (the timers' own cost included), beside the median step, for mppi and clustered on the
+    forest, dc in the crowd, and mppi with the unicycle and holonomic agents."""
     results = {}
     for case in PROFILE_CASES:
         loop = ClosedLoop(case.controller, case.problem, args.steps, **case.params)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from dcmppi.control.costs import OccupancyGrid, collision_counts, goal_distance
+from dcmppi.control.costs import OccupancyGrid, collision_counts, goal_distance, static_costs
 
 
 def test_grid_is_conservative_and_tight():
@@ -82,6 +82,21 @@ def test_grid_count_is_lookup_summed_over_steps():
     np.testing.assert_array_equal(counts, grid.lookup(x, y).sum(axis=0))
     assert 0 < counts.sum() < x.size
     np.testing.assert_array_equal(OccupancyGrid(None, 0.5).count(x, y), np.zeros(40))
+
+
+@pytest.mark.parametrize("bounds", [None, (-2.0, -1.0, 22.0, 18.0)])
+def test_static_costs_equal_goal_distance_plus_alpha_count(bounds):
+    rng = np.random.default_rng(5)
+    static = np.column_stack([rng.uniform(0, 20, (30, 2)), rng.uniform(0.2, 1.5, 30)])
+    grid = OccupancyGrid(static, 0.5, bounds=bounds)
+    x, y = rng.uniform(-5, 25, (2, 11, 40))  # inside and outside the grid
+    x[3, 7] = np.nan  # a nan state: nan cost in both
+    goal = np.array([18.0, 3.0])
+    expected = goal_distance(x, y, goal) + 1e3 * grid.count(x, y)
+    assert (grid.count(x, y) > 0).sum() > 10
+    np.testing.assert_array_equal(static_costs(x, y, goal, grid, 1e3), expected)
+    with pytest.raises(ValueError, match="alike"):
+        static_costs(x, y[:-1], goal, grid, 1e3)
 
 
 def test_mismatched_steps_raise():

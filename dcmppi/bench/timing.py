@@ -352,7 +352,7 @@ def _parts():
         ("  rollout", unicycle.Unicycle, "rollout"),
         ("  rollout", holonomic.Holonomic, "rollout"),
         ("  goal distance", controllers, "goal_distance"),
-        ("  cost-map count", costs.OccupancyGrid, "count"),
+        ("  goal + cost map", controllers, "static_costs"),
         ("  obstacle tracks", costs.TrackIndex, "count"),
         ("importance term", controllers.Controller, "importance"),
         ("Alg. 1 update", mppi, "mppi_update"),

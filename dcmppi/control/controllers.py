@@ -20,7 +20,15 @@ import numpy as np
 from . import defaults
 from ._malloc import tune_malloc
 from .agents import Agent, agent_class, make_agent
-from .costs import RESOLUTION, OccupancyGrid, TrackIndex, goal_distance, valid_cylinders
+from .costs import (
+    RESOLUTION,
+    OccupancyGrid,
+    TrackIndex,
+    goal_distance,
+    static_costs,
+    valid_cylinders,
+)
+from .normal import standard_normal
 
 PERTURBATIONS = ("constant", "time_varying", "mixed")
 MAX_COORDINATE = 1e6  # |state| and |goal| bound: far beyond, squared distances overflow
@@ -239,6 +247,8 @@ class Controller:
         # gamma lambda Sigma^-1 of the importance term, per control
         self._importance_weight = (self.gamma * self.lambda_) / self.Sigma
         self._grid = None
+        self._free_tracks = np.zeros((0, self.N + 1, 2))
+        self._free = TrackIndex(self._free_tracks, np.zeros(0))  # no moving obstacle near
         self.rng = None
         self.reset(seed)
 
@@ -316,20 +326,24 @@ class Controller:
             self.U = self.agent.project(self.agent.first_guess(state, goal, self.N), axis=1)
         moving = valid_cylinders(moving, "moving", columns=4, unobserved=2)
         self._prepare_obstacles(state, moving, obstacle_model)
-        self._track_index = TrackIndex(self._tracks, self._track_distance)
+        tracks = self._tracks
+        self._track_index = TrackIndex(tracks, self._track_distance) if len(tracks) else self._free
         u = self._solve(state)
         self.diagnostics.action = u
         return u
 
     def _prepare_obstacles(self, state, moving, obstacle_model):
         """Moving obstacles seen as static at their current positions (alpha weight)."""
+        self._track_weight = self.alpha
+        if len(moving) == 0:  # the static tasks: none of the work below
+            self._tracks, self._track_distance = self._free_tracks, self._free_tracks[:, 0, 0]
+            return
         radius = moving[:, 3] + self.obstacle_margin
         reach = self.agent.max_speed * self.N * self.dt + self.robot_radius + radius
         near = np.hypot(moving[:, 0] - state[0], moving[:, 1] - state[1]) <= reach
         frozen = moving[near]
         self._tracks = np.broadcast_to(frozen[:, None, :2], (len(frozen), self.N + 1, 2))
         self._track_distance = radius[near] + self.robot_radius
-        self._track_weight = self.alpha
 
     def _solve(self, state):
         raise NotImplementedError
@@ -347,13 +361,13 @@ class Controller:
         shape = (self.N, self.nu, self.K)
         self._raw = None
         if self.perturbation == "time_varying":
-            return self.rng.standard_normal(shape) * self.sigma[:, None]
-        raw = self.rng.standard_normal((self.nu, self.K)) * self.sigma[:, None]
+            return standard_normal(self.rng, shape) * self.sigma[:, None]
+        raw = standard_normal(self.rng, (self.nu, self.K)) * self.sigma[:, None]
         if self.perturbation == "constant":
             self._raw = raw
             return np.broadcast_to(raw, shape)
         half = np.sqrt(0.5)  # each draw N(0, Sigma / 2): the sum has variance Sigma at every step
-        return half * raw + self.rng.standard_normal(shape) * (half * self.sigma[:, None])
+        return half * raw + standard_normal(self.rng, shape) * (half * self.sigma[:, None])
 
     def controls(self, U0, eps):
         """Bounded controls project(U0 + eps) (N, nu, K) and the perturbations that remain.
@@ -378,9 +392,10 @@ class Controller:
         """
         states = self.agent.rollout(x0, u, self.dt, starts)
         x, y = states[0], states[1]
-        J = goal_distance(x, y, self._goal)
-        if not self._grid.empty and self.alpha:
-            J += self.alpha * self._grid.count(x, y)
+        if self._grid.empty or not self.alpha:
+            J = goal_distance(x, y, self._goal)
+        else:
+            J = static_costs(x, y, self._goal, self._grid, self.alpha)
         if not self._track_index.empty:
             J += self._track_weight * self._track_index.count(x, y)
         return states, J

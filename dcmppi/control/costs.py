@@ -109,7 +109,9 @@ class OccupancyGrid:
                 grid[(slice(None), out) if axis else out] = True
         self.grid = grid
         limit = np.array(self.shape, dtype=float) - 1.0  # last cell index along x and y
-        self._cells = (grid.ravel(), self.shape[1], self.origin, limit, 1.0 / resolution)
+        # cells as bytes: numba's loops over uint8 vectorise where those over bool do not
+        flat = grid.ravel().view(np.uint8)
+        self._cells = (flat, self.shape[1], self.origin, limit, 1.0 / resolution)
 
     def matches(self, static, bounds=None):
         """True when `static` and `bounds` are those this grid was built from (cheap equality)."""
@@ -182,6 +184,33 @@ def goal_distance(x, y, goal):
     """Sum over steps of the distance to the goal. x, y: (N + 1, K). Returns (K,)."""
     _check_steps(x, y)
     return _goal_distance(x, y, float(goal[0]), float(goal[1]))
+
+
+def static_costs(x, y, goal, grid, alpha):
+    """goal_distance plus alpha per occupied state of `grid` (OccupancyGrid), in one pass: the
+    same values as goal_distance(x, y, goal) + alpha * grid.count(x, y). x, y: (N + 1, R).
+    Returns (R,)."""
+    _check_steps(x, y)
+    return _static_costs(x, y, float(goal[0]), float(goal[1]), float(alpha), *grid._cells)
+
+
+@numba.njit(cache=True)
+def _static_costs(x, y, gx, gy, alpha, flat, columns, origin, limit, inv):
+    """Per step, the goal distances then the cell lookups (two loops that vectorise apart)."""
+    J = np.zeros(x.shape[1])
+    hits = np.zeros(x.shape[1], dtype=np.intp)
+    ox, oy, lx, ly = origin[0], origin[1], limit[0], limit[1]
+    for i in range(x.shape[0]):
+        xi, yi = x[i], y[i]
+        for k in range(x.shape[1]):
+            dx = xi[k] - gx
+            dy = yi[k] - gy
+            J[k] += np.sqrt(dx * dx + dy * dy)
+        for k in range(x.shape[1]):
+            hits[k] += flat[_index(xi[k], ox, inv, lx) * columns + _index(yi[k], oy, inv, ly)]
+    for k in range(x.shape[1]):
+        J[k] += alpha * hits[k]
+    return J
 
 
 def _check_steps(x, y):

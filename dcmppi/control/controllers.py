@@ -361,13 +361,18 @@ class Controller:
         shape = (self.N, self.nu, self.K)
         self._raw = None
         if self.perturbation == "time_varying":
-            return standard_normal(self.rng, shape) * self.sigma[:, None]
+            eps = standard_normal(self.rng, shape)
+            eps *= self.sigma[:, None]
+            return eps
         raw = standard_normal(self.rng, (self.nu, self.K)) * self.sigma[:, None]
         if self.perturbation == "constant":
             self._raw = raw
             return np.broadcast_to(raw, shape)
         half = np.sqrt(0.5)  # each draw N(0, Sigma / 2): the sum has variance Sigma at every step
-        return half * raw + standard_normal(self.rng, shape) * (half * self.sigma[:, None])
+        eps = standard_normal(self.rng, shape)
+        eps *= half * self.sigma[:, None]
+        eps += half * raw
+        return eps
 
     def controls(self, U0, eps):
         """Bounded controls project(U0 + eps) (N, nu, K) and the perturbations that remain.

@@ -22,6 +22,7 @@ Units (one rule for every experiment and agent, never tuned on a table):
   units over 51 states) never decide it.
 """
 
+import numba
 import numpy as np
 
 from .agents.dubins import Dubins, jacobian_terms
@@ -55,13 +56,14 @@ def tvlqr_gains(A, B, Q, R, Qf):
     return K
 
 
+@numba.njit(cache=True)
 def dubins_lqr_gain(c0, c1, b0, b1, b2, q_pos, q_theta, r):
     """K_0 of tvlqr_gains for the Dubins Jacobians (jacobian_terms), in scalar arithmetic.
 
     Same Riccati backward pass as tvlqr_gains with Q = Q_N = diag(q_pos, q_pos, q_theta) and
     R = r, written out for A_i = I + c0_i e_x e_theta^T + c1_i e_y e_theta^T, B_i = (b0_i, b1_i,
-    b2): the six entries of the symmetric P as Python floats (one 3 x 3 numpy product costs more
-    than this whole step). Equal to tvlqr_gains(...)[0] up to rounding.
+    b2): the six entries of the symmetric P as scalars (one 3 x 3 numpy product costs more than
+    this whole step). Equal to tvlqr_gains(...)[0] up to rounding.
 
     Args:
       c0, c1, b0, b1: (N,) Jacobian entries; b2: dt; q_pos, q_theta, r: weights.
@@ -71,8 +73,8 @@ def dubins_lqr_gain(c0, c1, b0, b1, b2, q_pos, q_theta, r):
     p00, p01, p02, p11, p12, p22 = q_pos, 0.0, 0.0, q_pos, 0.0, q_theta
     g0 = g1 = g2 = 0.0
     den = 1.0
-    for e0, e1, f0, f1 in zip(c0[::-1].tolist(), c1[::-1].tolist(), b0[::-1].tolist(),
-                              b1[::-1].tolist(), strict=True):  # fmt: skip
+    for i in range(len(c0) - 1, -1, -1):
+        e0, e1, f0, f1 = c0[i], c1[i], b0[i], b1[i]
         m02 = e0 * p00 + e1 * p01 + p02  # third column of P A
         m12 = e0 * p01 + e1 * p11 + p12
         m22 = e0 * p02 + e1 * p12 + p22

@@ -189,10 +189,12 @@ class PeerLoop:
         return float(np.median(times)), float(np.percentile(times, 95))
 
 
-def compare(ours, steps):
+def compare(ours, steps, block=1):
     """Time our closed loop `ours` (timing.ClosedLoop, not yet stepped) beside pytorch_mppi's.
 
-    Both run `steps` control steps, interleaved one step each, with torch on one thread (the
+    Both run `steps` control steps, interleaved in blocks of `block` consecutive steps each (as
+    timing's table: a block's steps find their data in the caches as a controller's consecutive
+    steps do; block = 1: every step after the other's, cold), with torch on one thread (the
     caller limits numpy's pools). Returns a dict: settings, versions, ours and theirs
     (median_ms, p95_ms), both ratios, the first actions and first plans' costs under the shared
     cost, and `same_problem`: a short message that both solve the same problem.
@@ -203,16 +205,19 @@ def compare(ours, steps):
     try:
         theirs = PeerLoop(ours)
         problem, start = theirs.problem, theirs.state.copy()
-        paths = [[], []]
-        for i in range(steps):
+        paths, plans = [[], []], []
+        for block_start in range(0, steps, block):
             for loop, path in zip((ours, theirs), paths, strict=True):
-                loop.step()
-                path.append(loop.state[:2])
-            if i == 0:
-                plans = np.stack([ours.ctrl.diagnostics.plan, theirs.mppi.U.numpy()])
+                for i in range(block_start, min(block_start + block, steps)):
+                    loop.step()
+                    path.append(loop.state[:2])
+                    if i == 0:
+                        first_plan = loop.ctrl.diagnostics.plan if loop is ours else loop.mppi.U
+                        plans.append(np.array(first_plan))
     finally:
         torch.set_num_threads(threads)
     (mo, po), (mt, pt) = ours.summary(), theirs.summary()
+    plans = np.stack(plans)
     costs = problem.cost(start, torch.from_numpy(np.vstack([plans, 0 * plans[:1]]))).tolist()
     first = plans[:, 0, 0].tolist()
     gap = float(np.hypot(*(ours.state[:2] - theirs.state[:2])))
@@ -226,6 +231,7 @@ def compare(ours, steps):
             "lambda": c.lambda_,
             "Sigma": c.Sigma.tolist(),
             "steps": steps,
+            "block": block,
         },
         "versions": {
             "torch": torch.__version__,

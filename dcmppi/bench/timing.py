@@ -314,14 +314,15 @@ def against(args):
         return 2
     ours = ClosedLoop("mppi", "forest", args.steps, perturbation="time_varying")
     with threadpool_limits(1):
-        result = peer.compare(ours, args.steps)
+        result = peer.compare(ours, args.steps, args.block)
     if args.json:
         print(json.dumps(result, indent=2))
         return 0
     v, s = result["versions"], result["settings"]
     print(
         f"dcmppi timing --against pytorch_mppi {v['pytorch_mppi']} (torch {v['torch']}): forest, "
-        f"K={s['K']} N={s['N']}, {s['perturbation']} noise, one thread, {args.steps} steps"
+        f"K={s['K']} N={s['N']}, {s['perturbation']} noise, one thread, {args.steps} steps "
+        f"interleaved in blocks of {args.block}"
     )
     print(f"{'controller':<20} {'median ms':>9} {'p95 ms':>7}")
     for name, key in (("mppi (dcmppi)", "ours"), ("pytorch_mppi", "theirs")):

@@ -31,6 +31,7 @@ import numpy as np
 from .clustered import ClusteredMPPI
 from .controllers import _positive, register
 from .dynamics import obstacle_futures
+from .normal import standard_normal
 from .prediction import MEASUREMENT_STD, ObstacleFilter
 
 PREDICTIONS = ("prior", "ekf")
@@ -42,7 +43,7 @@ def sample_speeds(rng, obstacle_model, L, P):
     obstacle_model: (4,) v_mean, v_std, omega_mean, omega_std. Speeds are clipped at 0.
     """
     v_mean, v_std, w_mean, w_std = obstacle_model
-    z = rng.standard_normal((2, L, P))
+    z = standard_normal(rng, (2, L, P))
     return np.maximum(v_mean + v_std * z[0], 0.0), w_mean + w_std * z[1]
 
 

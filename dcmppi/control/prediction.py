@@ -40,6 +40,7 @@ Each step is one numpy pass over all L obstacles and their components (batched 5
 import numpy as np
 
 from .dynamics import sinc, wrap_angle
+from .normal import standard_normal
 
 STATE = ("x", "y", "heading", "speed", "turn_rate")
 HEADINGS = 8  # heading components per obstacle
@@ -179,7 +180,7 @@ class ObstacleFilter:
         component = np.minimum((u[..., None] > cumulative[:, None, :]).sum(axis=-1), M - 1)
         rows = np.arange(L)[:, None]
         chol = np.linalg.cholesky(self.covs)[rows, component]  # (L, P, 5, 5)
-        z = rng.standard_normal((L, P, 5))
+        z = standard_normal(rng, (L, P, 5))
         return self.means[rows, component] + np.einsum("lpij,lpj->lpi", chol, z)
 
     def _spread(self, z, speed, speed_var, turn, turn_var):

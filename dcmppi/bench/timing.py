@@ -365,6 +365,7 @@ def _parts():
 
 PROFILE_CASES = (
     Case("mppi", "mppi", "forest"),
+    Case("mppi tv", "mppi", "forest", TV),  # the peer's problem: nu x N x K normals per step
     Case("clustered", "clustered", "forest"),
     Case("dc", "dc", "crowd"),
     # the agents on mppi's problem and perturbation kind: their rollouts beside dubins'
@@ -375,8 +376,9 @@ PROFILE_CASES = (
 
 def profile(args):
     """`--profile`: the median over steps of the microseconds spent in each part of a step
-    (the timers' own cost included), beside the median step, for mppi and clustered on the
-    forest, dc in the crowd, and mppi with the unicycle and holonomic agents."""
+    (the timers' own cost included), beside the median step, for mppi (constant and
+    time-varying perturbations) and clustered on the forest, dc in the crowd, and mppi with the
+    unicycle and holonomic agents."""
     results = {}
     for case in PROFILE_CASES:
         loop = ClosedLoop(case.controller, case.problem, args.steps, **case.params)

@@ -273,8 +273,8 @@ class TrackIndex:
             return
         width = float(distance.max()) * (1.0 + 1e-9)  # rounding never puts a hit two cells away
         width = width if width > 0 else 1.0
-        step_major = np.ascontiguousarray(tracks.transpose(1, 2, 0))  # (N + 1, 2, T)
-        self._index = (1.0 / width, *_sort_tracks(step_major, distance * distance, 1.0 / width))
+        tracks = np.ascontiguousarray(tracks)
+        self._index = (1.0 / width, *_sort_tracks(tracks, distance * distance, 1.0 / width))
 
     def count(self, x, y):
         """Collisions (R,) int of rollouts x, y (N + 1, R) with the tracks, summed over steps."""
@@ -290,63 +290,118 @@ class TrackIndex:
 def _sort_tracks(tracks, d2, inv):
     """Counting sort of every step's track positions into cells of width 1 / inv.
 
-    tracks: (N + 1, 2, T); d2: (T,) squared collision distances. Returns the cells' lower
+    tracks: (T, N + 1, 2); d2: (T,) squared collision distances. Returns the cells' lower
     corner (N + 1, 2), their counts along x and y (N + 1, 2), each step's offset into `start`
     (N + 2,), start: per cell the first position of its tracks (cells of a step plus one end
-    entry, steps concatenated), and the tracks' x, y and d2 in cell order, (N + 1, T) each, so
-    the tracks of neighbouring cells of one column are one contiguous run."""
-    steps, T = tracks.shape[0], tracks.shape[2]
-    corner = np.empty((steps, 2))
+    entry, steps concatenated), and the tracks' x, y, d2 in cell order (N + 1, T, 3), so the
+    tracks of neighbouring cells of one column are one contiguous run."""
+    T, steps = tracks.shape[0], tracks.shape[1]
+    flat = tracks.reshape(T, 2 * steps)
+    lo, hi = flat[0].copy(), flat[0].copy()  # bounding box of each step, x and y interleaved
+    for t in range(1, T):
+        row = flat[t]
+        for a in range(2 * steps):  # selects, not min/max: a loop that vectorises
+            lo[a] = row[a] if row[a] < lo[a] else lo[a]
+            hi[a] = row[a] if row[a] > hi[a] else hi[a]
+    corner = lo.reshape(steps, 2)
     shape = np.empty((steps, 2), dtype=np.intp)
     offset = np.zeros(steps + 1, dtype=np.intp)
     for i in range(steps):
-        corner[i, 0], corner[i, 1] = tracks[i, 0].min(), tracks[i, 1].min()
-        shape[i, 0] = int((tracks[i, 0].max() - corner[i, 0]) * inv) + 1
-        shape[i, 1] = int((tracks[i, 1].max() - corner[i, 1]) * inv) + 1
+        shape[i, 0] = int((hi[2 * i] - lo[2 * i]) * inv) + 1
+        shape[i, 1] = int((hi[2 * i + 1] - lo[2 * i + 1]) * inv) + 1
         offset[i + 1] = offset[i] + shape[i, 0] * shape[i, 1] + 1
     start = np.zeros(offset[steps], dtype=np.intp)
-    sx, sy, sd2 = np.empty((steps, T)), np.empty((steps, T)), np.empty((steps, T))
     cell = np.empty(T, dtype=np.intp)
+    out = np.empty((steps, T, 3))
     for i in range(steps):
         s = start[offset[i] : offset[i + 1]]
         ny = shape[i, 1]
         for t in range(T):
-            cell[t] = int((tracks[i, 0, t] - corner[i, 0]) * inv) * ny + int(
-                (tracks[i, 1, t] - corner[i, 1]) * inv
+            cell[t] = int((tracks[t, i, 0] - corner[i, 0]) * inv) * ny + int(
+                (tracks[t, i, 1] - corner[i, 1]) * inv
             )
-            s[cell[t] + 1] += 1
+            s[cell[t]] += 1
+        total = 0  # s[c] = the end of cell c's run, then (back to front) its start
         for c in range(len(s) - 1):
-            s[c + 1] += s[c]
-        slot = s[:-1].copy()
-        for t in range(T):
-            j = slot[cell[t]]
-            sx[i, j], sy[i, j], sd2[i, j] = tracks[i, 0, t], tracks[i, 1, t], d2[t]
-            slot[cell[t]] += 1
-    return corner, shape, offset, start, sx, sy, sd2
+            total += s[c]
+            s[c] = total
+        s[len(s) - 1] = T
+        o = out[i]
+        for t in range(T - 1, -1, -1):
+            s[cell[t]] -= 1
+            j = s[cell[t]]
+            o[j, 0], o[j, 1], o[j, 2] = tracks[t, i, 0], tracks[t, i, 1], d2[t]
+    return corner, shape, offset, start, out
 
 
 @numba.njit(cache=True)
-def _count_hits(x, y, inv, corner, shape, offset, start, sx, sy, sd2):
-    """(R,) hits of the states x, y (N + 1, R) with the sorted tracks (see _sort_tracks): per
-    state, the runs of tracks in the three columns of cells around its own."""
+def _count_hits(x, y, inv, corner, shape, offset, start, sorted_tracks):
+    """(R,) hits of the states x, y (N + 1, R) with the sorted tracks (see _sort_tracks).
+
+    A state meets the tracks of the three columns of cells around its own. The states of one
+    step crowd into a few cells (about 6 for K = 500), so they are sorted by cell first and each
+    cell's candidate tracks are gathered once into one contiguous run that all its states then
+    scan: per state one loop instead of three short ones, and a loop of the same length as the
+    previous state's, whose end the branch predictor foresees."""
     steps, R = x.shape
+    T = sorted_tracks.shape[1]
     counts = np.zeros(R, dtype=np.intp)
+    cx, cy = np.empty(R, dtype=np.intp), np.empty(R, dtype=np.intp)
+    cell, order = np.empty(R, dtype=np.intp), np.empty(R, dtype=np.intp)
+    bins = 0  # the most cells a step's states can fall in
+    for i in range(steps):
+        bins = max(bins, (shape[i, 0] + 2) * (shape[i, 1] + 2))
+    first = np.empty(bins + 1, dtype=np.intp)
+    bx, by, bd2 = np.empty(T), np.empty(T), np.empty(T)
     for i in range(steps):
         nx, ny = shape[i, 0], shape[i, 1]
         s = start[offset[i] : offset[i + 1]]
-        ox, oy, od2 = sx[i], sy[i], sd2[i]
+        o = sorted_tracks[i]
+        xi, yi = x[i], y[i]
+        x0, y0, x1, y1 = nx, ny, -1, -1  # bounding box of the states' cells
         for k in range(R):
-            px, py = x[i, k], y[i, k]
-            fx, fy = (px - corner[i, 0]) * inv, (py - corner[i, 1]) * inv
+            fx, fy = (xi[k] - corner[i, 0]) * inv, (yi[k] - corner[i, 1]) * inv
             if not (-1.0 <= fx < nx + 1.0 and -1.0 <= fy < ny + 1.0):
-                continue  # no cell within one of the state's
-            cx, cy = int(np.floor(fx)), int(np.floor(fy))
-            y0, y1 = max(cy - 1, 0), min(cy + 1, ny - 1)
-            hits = 0
-            for gx in range(max(cx - 1, 0), min(cx + 2, nx)):
-                for j in range(s[gx * ny + y0], s[gx * ny + y1 + 1]):
-                    dx = px - ox[j]
-                    dy = py - oy[j]
-                    hits += dx * dx + dy * dy <= od2[j]
-            counts[k] += hits
+                cx[k] = nx + 1  # no cell within one of the state's
+                continue
+            cx[k], cy[k] = int(np.floor(fx)), int(np.floor(fy))
+            x0, x1 = min(x0, cx[k]), max(x1, cx[k])
+            y0, y1 = min(y0, cy[k]), max(y1, cy[k])
+        if x1 < x0:
+            continue
+        rows = y1 - y0 + 1
+        used = (x1 - x0 + 1) * rows
+        first[: used + 1] = 0  # counting sort of the states by cell, as in _sort_tracks
+        for k in range(R):
+            if cx[k] <= nx:
+                cell[k] = (cx[k] - x0) * rows + cy[k] - y0
+                first[cell[k]] += 1
+        total = 0
+        for c in range(used):
+            total += first[c]
+            first[c] = total
+        first[used] = total
+        for k in range(R - 1, -1, -1):
+            if cx[k] <= nx:
+                first[cell[k]] -= 1
+                order[first[cell[k]]] = k
+        for c in range(used):
+            if first[c] == first[c + 1]:
+                continue
+            gx, gy = x0 + c // rows, y0 + c % rows
+            r0, r1 = max(gy - 1, 0), min(gy + 1, ny - 1)
+            n = 0
+            for g in range(max(gx - 1, 0), min(gx + 2, nx)):
+                for j in range(s[g * ny + r0], s[g * ny + r1 + 1]):
+                    bx[n], by[n], bd2[n] = o[j, 0], o[j, 1], o[j, 2]
+                    n += 1
+            for q in range(first[c], first[c + 1]):
+                k = order[q]
+                px, py = xi[k], yi[k]
+                hits = 0
+                for j in range(n):
+                    dx = px - bx[j]
+                    dy = py - by[j]
+                    hits += dx * dx + dy * dy <= bd2[j]
+                counts[k] += hits
     return counts

@@ -95,18 +95,20 @@ class DCMPPI(ClusteredMPPI):
         else:
             model = check_obstacle_model(obstacle_model)
             speed, turn = sample_speeds(self.rng, model, len(moving), self.P)
-            pose = np.repeat(moving[:, None, :3], self.P, axis=1)
+            pose = moving[:, None, :3]  # (L, 1, 3): the futures of an obstacle start alike
             unseen = np.isnan(moving[:, 2])
             if unseen.any():
+                pose = np.repeat(pose, self.P, axis=1)
                 pose[unseen, :, 2] = self.rng.uniform(0.0, 2.0 * np.pi, (unseen.sum(), self.P))
         radius = moving[:, 3] + self.obstacle_margin
         reach = (self.agent.max_speed + np.abs(speed)) * self.N * self.dt + self.robot_radius
         reach = reach + radius[:, None]
-        gap = np.hypot(pose[..., 0] - state[0], pose[..., 1] - state[1])
+        gap = np.hypot(pose[..., 0] - state[0], pose[..., 1] - state[1])  # (L, 1) or (L, P)
         near = (gap <= reach).any(axis=1)
         n = int(near.sum())
+        pose = np.broadcast_to(pose[near], (n, self.P, 3))
         futures = obstacle_futures(
-            pose[near].reshape(-1, 3), speed[near].reshape(-1, 1), turn[near].reshape(-1, 1),
+            pose.reshape(-1, 3), speed[near].reshape(-1, 1), turn[near].reshape(-1, 1),
             self.N, self.dt,
         ).reshape(n, self.P, self.N + 1, 2)  # fmt: skip
         self._tracks = futures.reshape(-1, self.N + 1, 2)

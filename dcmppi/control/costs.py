@@ -174,10 +174,21 @@ def _occupied_points(flat, columns, origin, limit, inv, x, y):
 def _occupied_steps(flat, columns, origin, limit, inv, x, y):
     """Occupied states summed over the steps. x, y: (N + 1, R). Returns (R,) int."""
     counts = np.zeros(x.shape[1], dtype=np.intp)
+    cells = np.empty(x.shape[1], dtype=np.intp)
     for i in range(x.shape[0]):
-        for k in range(x.shape[1]):
-            counts[k] += _occupied(flat, columns, origin, limit, inv, x[i, k], y[i, k])
+        _add_hits(counts, cells, x[i], y[i], flat, columns, origin, limit, inv)
     return counts
+
+
+@numba.njit(inline="always")
+def _add_hits(counts, cells, x, y, flat, columns, origin, limit, inv):
+    """counts += occupancy of the points x, y (R,); cells: (R,) scratch. The cells' indices first
+    (a loop that vectorises), then the lookups (scalar loads, no index arithmetic left)."""
+    ox, oy, lx, ly = origin[0], origin[1], limit[0], limit[1]
+    for k in range(len(x)):
+        cells[k] = _index(x[k], ox, inv, lx) * columns + _index(y[k], oy, inv, ly)
+    for k in range(len(x)):
+        counts[k] += flat[cells[k]]
 
 
 def goal_distance(x, y, goal):
@@ -196,18 +207,17 @@ def static_costs(x, y, goal, grid, alpha):
 
 @numba.njit(cache=True)
 def _static_costs(x, y, gx, gy, alpha, flat, columns, origin, limit, inv):
-    """Per step, the goal distances then the cell lookups (two loops that vectorise apart)."""
+    """Per step, the goal distances then the cell lookups (loops that vectorise apart)."""
     J = np.zeros(x.shape[1])
     hits = np.zeros(x.shape[1], dtype=np.intp)
-    ox, oy, lx, ly = origin[0], origin[1], limit[0], limit[1]
+    cells = np.empty(x.shape[1], dtype=np.intp)
     for i in range(x.shape[0]):
         xi, yi = x[i], y[i]
         for k in range(x.shape[1]):
             dx = xi[k] - gx
             dy = yi[k] - gy
             J[k] += np.sqrt(dx * dx + dy * dy)
-        for k in range(x.shape[1]):
-            hits[k] += flat[_index(xi[k], ox, inv, lx) * columns + _index(yi[k], oy, inv, ly)]
+        _add_hits(hits, cells, xi, yi, flat, columns, origin, limit, inv)
     for k in range(x.shape[1]):
         J[k] += alpha * hits[k]
     return J

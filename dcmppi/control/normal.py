@@ -8,6 +8,8 @@ generator state, which ends where numpy's would, for every bit generator, at abo
 normal. Unboxing the generator costs a few microseconds per call, so small draws stay numpy's.
 """
 
+import math
+
 import numba
 import numpy as np
 
@@ -21,7 +23,7 @@ def standard_normal(rng, shape):
       rng: np.random.Generator. shape: int or tuple of ints.
     """
     shape = (shape,) if isinstance(shape, (int, np.integer)) else tuple(shape)
-    if np.prod(shape) < NUMBA_MIN_SIZE:
+    if math.prod(shape) < NUMBA_MIN_SIZE:  # math.prod: 0.1 us, np.prod: 3
         return rng.standard_normal(shape)
     return _standard_normal(rng, shape)
 

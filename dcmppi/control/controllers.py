@@ -28,7 +28,7 @@ from .costs import (
     static_costs,
     valid_cylinders,
 )
-from .normal import standard_normal
+from .normal import scaled_normal, standard_normal
 
 PERTURBATIONS = ("constant", "time_varying", "mixed")
 MAX_COORDINATE = 1e6  # |state| and |goal| bound: far beyond, squared distances overflow
@@ -361,18 +361,13 @@ class Controller:
         shape = (self.N, self.nu, self.K)
         self._raw = None
         if self.perturbation == "time_varying":
-            eps = standard_normal(self.rng, shape)
-            eps *= self.sigma[:, None]
-            return eps
+            return scaled_normal(self.rng, shape, self.sigma)
         raw = standard_normal(self.rng, (self.nu, self.K)) * self.sigma[:, None]
         if self.perturbation == "constant":
             self._raw = raw
             return np.broadcast_to(raw, shape)
         half = np.sqrt(0.5)  # each draw N(0, Sigma / 2): the sum has variance Sigma at every step
-        eps = standard_normal(self.rng, shape)
-        eps *= half * self.sigma[:, None]
-        eps += half * raw
-        return eps
+        return scaled_normal(self.rng, shape, half * self.sigma, half * raw)
 
     def controls(self, U0, eps):
         """Bounded controls project(U0 + eps) (N, nu, K) and the perturbations that remain.

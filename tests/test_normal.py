@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from dcmppi.control.normal import scaled_normal, standard_normal
+from dcmppi.control.normal import _pcg64_state, scaled_normal, standard_normal
 
 BIT_GENERATORS = [
     np.random.PCG64,
@@ -52,3 +52,22 @@ def test_scaled_normal_equals_numpys_scale_and_sum(bit_generator, shape, offset)
             z += add
         np.testing.assert_array_equal(x, z)
     assert ours.random() == numpys.random()
+
+
+def test_pcg64_draws_run_on_its_live_state_and_alternate_between_generators():
+    """default_rng's PCG64 takes the inline path (its state read and written in place); draws
+    that alternate between two generators continue each one's stream."""
+    a, b = np.random.default_rng(1), np.random.default_rng(2)
+    view = _pcg64_state(a.bit_generator)
+    assert view is not None
+    state = a.bit_generator.state["state"]
+    assert int(view[0]) | int(view[1]) << 64 == state["state"]
+    assert _pcg64_state(np.random.Generator(np.random.MT19937(0)).bit_generator) is None
+    numpy_a, numpy_b = np.random.default_rng(1), np.random.default_rng(2)
+    for shape in [(5000,), (4, 1, 1000), (3000,)]:
+        for ours, numpys in ((a, numpy_a), (b, numpy_b)):
+            np.testing.assert_array_equal(
+                standard_normal(ours, shape), numpys.standard_normal(shape)
+            )
+    assert a.bit_generator.state == numpy_a.bit_generator.state
+    assert b.bit_generator.state == numpy_b.bit_generator.state

@@ -10,10 +10,21 @@ normal. Unboxing the generator costs a few microseconds per call, so small draws
 perturbations need, instead of two more passes over them.
 """
 
+import ctypes
 import math
 
 import numba
 import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
+from numba.np.random._constants import (
+    fi_double,
+    ki_double,
+    wi_double,
+    ziggurat_nor_inv_r,
+    ziggurat_nor_r,
+)
 
 NUMBA_MIN_SIZE = 2000  # below this many normals numpy's own call is as quick
 
@@ -25,9 +36,13 @@ def standard_normal(rng, shape):
       rng: np.random.Generator. shape: int or tuple of ints.
     """
     shape = (shape,) if isinstance(shape, (int, np.integer)) else tuple(shape)
-    if math.prod(shape) < NUMBA_MIN_SIZE:  # math.prod: 0.1 us, np.prod: 3
+    size = math.prod(shape)  # math.prod: 0.1 us, np.prod: 3
+    if size < NUMBA_MIN_SIZE:
         return rng.standard_normal(shape)
-    return _standard_normal(rng, shape)
+    state = _pcg64_state(rng.bit_generator)
+    if state is None:
+        return _standard_normal(rng, shape)
+    return _pcg64_normals(state, 1, _ONE, _NO_OFFSET, size).reshape(shape)
 
 
 @numba.njit(cache=True)
@@ -51,9 +66,12 @@ def scaled_normal(rng, shape, scale, add=None):
         if add is not None:
             z += add
         return z
-    if add is None:
-        return _scaled_normal(rng, shape[0], scale, np.zeros((0, shape[2])), shape[2])
-    return _scaled_normal(rng, shape[0], scale, add, shape[2])
+    n, k = shape[0], shape[2]
+    add = np.zeros((0, k)) if add is None else add
+    state = _pcg64_state(rng.bit_generator)
+    if state is None:
+        return _scaled_normal(rng, n, scale, add, k)
+    return _pcg64_normals(state, n, scale, add, k)
 
 
 @numba.njit(cache=True)
@@ -72,4 +90,134 @@ def _scaled_normal(rng, n, scale, add, k):
             else:
                 for j in range(k):
                     o[j] = rng.standard_normal() * s
+    return out
+
+
+# --- PCG64 (np.random.default_rng's bit generator) inline ---------------------------------------
+#
+# Through numba's Generator support every draw calls the bit generator's next_uint64 through a
+# function pointer, whose 128-bit state then lives in memory. For a PCG64 the state is read once
+# through its ctypes address (checked against bit_generator.state), stepped in registers with
+# LLVM's 128-bit multiply, and written back: the same outputs, about 20 % less time per normal.
+# Like numba's draws, these bypass the generator's lock: one thread per generator.
+
+_PCG64_MULTIPLIER = (
+    0x2360ED051FC65DA44385DF649FCCF645  # numpy's pcg64.h, PCG_DEFAULT_MULTIPLIER_128
+)
+_ONE, _NO_OFFSET = np.ones(1), np.zeros((0, 1))
+_last_pcg64 = [None, None]  # the last PCG64 seen and the view of its state (or None)
+
+
+def _pcg64_state(bit_generator):
+    """A writable uint64 (4,) view of a numpy PCG64's state: state (low, high), increment (low,
+    high); None for other bit generators, or when the memory does not hold bit_generator.state
+    (another layout)."""
+    if type(bit_generator) is not np.random.PCG64:
+        return None
+    if _last_pcg64[0] is bit_generator:
+        return _last_pcg64[1]
+    address = ctypes.c_void_p.from_address(bit_generator.ctypes.state_address).value
+    view = np.ctypeslib.as_array((ctypes.c_uint64 * 4).from_address(address)) if address else None
+    state = bit_generator.state["state"]
+    if view is not None:
+        low_high = [int(v) for v in view]
+        if low_high[0] | low_high[1] << 64 != state["state"] or (
+            low_high[2] | low_high[3] << 64 != state["inc"]
+        ):
+            view = None
+    _last_pcg64[:] = bit_generator, view  # keeps the generator, and so the memory, alive
+    return view
+
+
+@intrinsic
+def _pcg64_step(typingctx, low, high, inc_low, inc_high):
+    """PCG64's LCG step, state * multiplier + increment (mod 2^128), on uint64 halves; returns
+    the new state (low, high)."""
+    u64 = types.uint64
+    sig = types.UniTuple(u64, 2)(u64, u64, u64, u64)
+
+    def codegen(context, builder, signature, args):
+        i64, i128 = ir.IntType(64), ir.IntType(128)
+
+        def wide(lo, hi):
+            hi = builder.shl(builder.zext(hi, i128), ir.Constant(i128, 64))
+            return builder.or_(hi, builder.zext(lo, i128))
+
+        state = builder.mul(wide(*args[:2]), ir.Constant(i128, _PCG64_MULTIPLIER))
+        state = builder.add(state, wide(*args[2:]))
+        lo = builder.trunc(state, i64)
+        hi = builder.trunc(builder.lshr(state, ir.Constant(i128, 64)), i64)
+        return context.make_tuple(builder, signature.return_type, (lo, hi))
+
+    return sig, codegen
+
+
+_U8, _U11, _U58, _U63, _U64 = (np.uint64(b) for b in (8, 11, 58, 63, 64))
+_LOW_BYTE, _MANTISSA, _ONE_U = np.uint64(0xFF), np.uint64(0x000FFFFFFFFFFFFF), np.uint64(1)
+
+
+@numba.njit(inline="always")
+def _pcg64_next(lo, hi, inc_lo, inc_hi):
+    """next_uint64: the step, then the XSL-RR output of the new state; returns it and the state."""
+    lo, hi = _pcg64_step(lo, hi, inc_lo, inc_hi)
+    x, rot = hi ^ lo, hi >> _U58
+    return (x >> rot) | (x << ((_U64 - rot) & _U63)), lo, hi
+
+
+@numba.njit(inline="always")
+def _double(r):
+    """next_double from a next_uint64 output: its top 53 bits over 2^53 (below 2^53, an int64
+    converts to the same double as the uint64, in fewer instructions)."""
+    return np.int64(r >> _U11) * (1.0 / 9007199254740992.0)
+
+
+@numba.njit(inline="always")
+def _pcg64_normal(lo, hi, inc_lo, inc_hi):
+    """numpy's random_standard_normal (the 256-layer ziggurat, numpy's tables via numba's copy)
+    on PCG64 state (lo, hi); returns the normal and the new state."""
+    while True:
+        r, lo, hi = _pcg64_next(lo, hi, inc_lo, inc_hi)
+        idx = r & _LOW_BYTE
+        r >>= _U8
+        rabs = (r >> _ONE_U) & _MANTISSA
+        x = np.int64(rabs) * wi_double[idx]  # rabs < 2^52: exact as int64 too
+        if r & _ONE_U:
+            x = -x
+        if rabs < ki_double[idx]:
+            return x, lo, hi  # 99.3 %
+        if idx == 0:  # the tail beyond ziggurat_nor_r
+            while True:
+                u, lo, hi = _pcg64_next(lo, hi, inc_lo, inc_hi)
+                xx = -ziggurat_nor_inv_r * np.log1p(-_double(u))
+                u, lo, hi = _pcg64_next(lo, hi, inc_lo, inc_hi)
+                yy = -np.log1p(-_double(u))
+                if yy + yy > xx * xx:
+                    x = -(ziggurat_nor_r + xx) if (rabs >> _U8) & _ONE_U else ziggurat_nor_r + xx
+                    return x, lo, hi
+        else:  # a wedge
+            u, lo, hi = _pcg64_next(lo, hi, inc_lo, inc_hi)
+            f0, f1 = fi_double[idx - 1], fi_double[idx]
+            if (f0 - f1) * _double(u) + f1 < np.exp(-0.5 * x * x):
+                return x, lo, hi
+
+
+@numba.njit(cache=True)
+def _pcg64_normals(state, n, scale, add, k):
+    """_scaled_normal's draws from the PCG64 state view (4,) uint64, which ends advanced."""
+    lo, hi, inc_lo, inc_hi = state[0], state[1], state[2], state[3]
+    nu = len(scale)
+    out = np.empty((n, nu, k))
+    for i in range(n):
+        for c in range(nu):
+            s, o = scale[c], out[i, c]
+            if len(add):
+                a = add[c]
+                for j in range(k):
+                    x, lo, hi = _pcg64_normal(lo, hi, inc_lo, inc_hi)
+                    o[j] = x * s + a[j]
+            else:
+                for j in range(k):
+                    x, lo, hi = _pcg64_normal(lo, hi, inc_lo, inc_hi)
+                    o[j] = x * s
+    state[0], state[1] = lo, hi
     return out

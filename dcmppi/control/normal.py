@@ -1,11 +1,13 @@
-"""Standard normal draws bit-identical to numpy's `Generator.standard_normal`, 2.7 x as fast.
+"""Standard normal draws bit-identical to numpy's `Generator.standard_normal`, 3.5 x as fast.
 
 numpy's Generator.standard_normal costs about 9 ns per normal on our 2-core benchmark machine:
-0.24 ms of the 25 000 normals that one time-varying MPPI step draws. numba compiles the same
-draws for a Generator passed to a jitted function (numba's port of numpy's ziggurat, with its
-tables, calling the generator's own next_uint64 and next_double): the same values from the same
-generator state, which ends where numpy's would, for every bit generator, at about 3.5 ns per
-normal. Unboxing the generator costs a few microseconds per call, so small draws stay numpy's.
+0.24 ms of the 25 000 normals that one time-varying MPPI step draws. The same draws compiled:
+- PCG64 (np.random.default_rng's bit generator): its 128-bit state stepped in registers and
+  numpy's ziggurat over it (below), about 2.7 ns per normal, from 100 normals on;
+- any other bit generator: numba's Generator support (numba's port of numpy's ziggurat, with its
+  tables, calling the generator's own next_uint64 and next_double), about 3.5 ns per normal;
+  unboxing the generator costs a few microseconds per call, so draws below 2000 stay numpy's.
+Either way the values are numpy's and the generator's state ends where numpy's would (tests).
 `scaled_normal` scales the draws (and adds an offset) as they are drawn, as the controllers'
 perturbations need, instead of two more passes over them.
 """
@@ -27,6 +29,7 @@ from numba.np.random._constants import (
 )
 
 NUMBA_MIN_SIZE = 2000  # below this many normals numpy's own call is as quick
+PCG64_MIN_SIZE = 100  # the same for the inline PCG64 draws (below)
 
 
 def standard_normal(rng, shape):
@@ -37,12 +40,12 @@ def standard_normal(rng, shape):
     """
     shape = (shape,) if isinstance(shape, (int, np.integer)) else tuple(shape)
     size = math.prod(shape)  # math.prod: 0.1 us, np.prod: 3
+    state = _pcg64_state(rng.bit_generator)
+    if state is not None and size >= PCG64_MIN_SIZE:
+        return _pcg64_normals(state, 1, _ONE, _NO_OFFSET, size).reshape(shape)
     if size < NUMBA_MIN_SIZE:
         return rng.standard_normal(shape)
-    state = _pcg64_state(rng.bit_generator)
-    if state is None:
-        return _standard_normal(rng, shape)
-    return _pcg64_normals(state, 1, _ONE, _NO_OFFSET, size).reshape(shape)
+    return _standard_normal(rng, shape)
 
 
 @numba.njit(cache=True)
@@ -60,15 +63,15 @@ def scaled_normal(rng, shape, scale, add=None):
       (n, nu, K) float64.
     """
     scale = np.asarray(scale, dtype=float)
-    if math.prod(shape) < NUMBA_MIN_SIZE:
+    size, (n, _, k) = math.prod(shape), shape
+    state = _pcg64_state(rng.bit_generator)
+    if state is None and size < NUMBA_MIN_SIZE or state is not None and size < PCG64_MIN_SIZE:
         z = rng.standard_normal(shape)
         z *= scale[:, None]
         if add is not None:
             z += add
         return z
-    n, k = shape[0], shape[2]
     add = np.zeros((0, k)) if add is None else add
-    state = _pcg64_state(rng.bit_generator)
     if state is None:
         return _scaled_normal(rng, n, scale, add, k)
     return _pcg64_normals(state, n, scale, add, k)
@@ -99,7 +102,8 @@ def _scaled_normal(rng, n, scale, add, k):
 # function pointer, whose 128-bit state then lives in memory. For a PCG64 the state is read once
 # through its ctypes address (checked against bit_generator.state), stepped in registers with
 # LLVM's 128-bit multiply, and written back: the same outputs, about 20 % less time per normal.
-# Like numba's draws, these bypass the generator's lock: one thread per generator.
+# The ziggurat's tables are numpy's, from numba's copy (numba.np.random._constants). Like
+# numba's draws, these bypass the generator's lock: one thread per generator.
 
 _PCG64_MULTIPLIER = (
     0x2360ED051FC65DA44385DF649FCCF645  # numpy's pcg64.h, PCG_DEFAULT_MULTIPLIER_128

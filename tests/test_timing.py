@@ -28,6 +28,7 @@ def test_profile_times_the_parts_each_controller_calls(capsys):
     assert "  obstacle tracks" in dc and "  cost-map count" not in dc  # the crowd has no map
     for agent in ("mppi unicycle", "mppi holonomic"):  # each agent's own rollout is timed
         assert out[agent]["parts"]["  rollout"]["calls"] == 1
+    assert {"mppi mixed", "mppi holonomic mixed"} <= set(out)
     for parts, case in ((mppi, "mppi"), (clustered, "clustered")):
         inner = sum(parts[k]["median_us_per_step"] for k in parts if k.startswith("  "))
         assert 0 < inner <= 1.5 * parts["evaluate"]["median_us_per_step"]  # nested in evaluate

@@ -371,14 +371,17 @@ PROFILE_CASES = (
     # the agents on mppi's problem and perturbation kind: their rollouts beside dubins'
     Case("mppi unicycle", "mppi", "forest", {"agent": "unicycle", "perturbation": "constant"}),
     Case("mppi holonomic", "mppi", "forest", {"agent": "holonomic", "perturbation": "constant"}),
+    # the holonomic robot's default (mixed) beside the car's: 3 x the normals per step
+    Case("mppi mixed", "mppi", "forest", MIXED),
+    Case("mppi holonomic mixed", "mppi", "forest", {"agent": "holonomic", **MIXED}),
 )
 
 
 def profile(args):
     """`--profile`: the median over steps of the microseconds spent in each part of a step
     (the timers' own cost included), beside the median step, for mppi (constant and
-    time-varying perturbations) and clustered on the forest, dc in the crowd, and mppi with the
-    unicycle and holonomic agents."""
+    time-varying perturbations) and clustered on the forest, dc in the crowd, mppi with the
+    unicycle and holonomic agents, and the car and the holonomic robot with mixed perturbations."""
     results = {}
     for case in PROFILE_CASES:
         loop = ClosedLoop(case.controller, case.problem, args.steps, **case.params)

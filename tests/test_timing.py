@@ -33,3 +33,19 @@ def test_profile_times_the_parts_each_controller_calls(capsys):
         inner = sum(parts[k]["median_us_per_step"] for k in parts if k.startswith("  "))
         assert 0 < inner <= 1.5 * parts["evaluate"]["median_us_per_step"]  # nested in evaluate
         assert parts["evaluate"]["median_us_per_step"] < 1.5 * out[case]["step_us"]
+
+
+def test_fingerprint_repeats_and_tells_controllers_and_perturbations_apart(capsys, monkeypatch):
+    labels = ("mppi", "mppi tv", "clustered", "clustered tv")
+    cases = tuple(
+        c for c in timing.FINGERPRINT_CASES if c.label in labels and c.problem == "forest"
+    )
+    monkeypatch.setattr(timing, "FINGERPRINT_CASES", cases)
+    runs = []
+    for _ in range(2):
+        assert timing.main(["--fingerprint", "--steps", "6", "--json"]) == 0
+        runs.append(json.loads(capsys.readouterr().out)["results"])
+    assert runs[0] == runs[1]  # same seeds, same actions, same hashes
+    hashes = [r["sha1"] for r in runs[0]]
+    assert [r["case"] for r in runs[0]] == list(labels)
+    assert len(set(hashes)) == len(hashes) and all(len(h) == 40 for h in hashes)

@@ -20,6 +20,7 @@ them alike.
 
 import argparse
 import dataclasses
+import hashlib
 import json
 import platform
 import sys
@@ -257,6 +258,11 @@ def main(argv=None):
     parser.add_argument(
         "--profile", action="store_true", help="where one step's time goes, in microseconds"
     )
+    parser.add_argument(
+        "--fingerprint",
+        action="store_true",
+        help="hash every closed loop's actions (identical before and after a speed change)",
+    )
     args = parser.parse_args(argv)
     if args.steps < 5:
         parser.error("--steps must be >= 5")
@@ -266,6 +272,8 @@ def main(argv=None):
         return against(args)
     if args.profile:
         return profile(args)
+    if args.fingerprint:
+        return fingerprint(args)
     with threadpool_limits(1):
         times = time_cases(CASES, args.steps, args.block)
     rows = [
@@ -332,6 +340,46 @@ def against(args):
         f"ours / pytorch_mppi = {result['ours_over_theirs']:.3f}"
     )
     print(f"same problem: {result['same_problem']}")
+    return 0
+
+
+# `--fingerprint`: every row of the table and the variants that take other code paths
+FINGERPRINT_CASES = CASES + (
+    Case("dc ekf", "dc", "crowd", {"prediction": "ekf"}),
+    Case("dc tv", "dc", "crowd", TV),
+    Case("dc unicycle", "dc", "crowd", {"agent": "unicycle"}),
+    Case("clustered unicycle", "clustered", "forest", {"agent": "unicycle"}),
+    Case("clustered holonomic", "clustered", "forest", {"agent": "holonomic"}),
+    Case("clustered tv", "clustered", "forest", TV),
+    Case("clustered mixed", "clustered", "forest", MIXED),
+    Case("tube unicycle", "tube", "forest+push", {"agent": "unicycle"}),
+    Case("tube holonomic", "tube", "forest+push", {"agent": "holonomic"}),
+    Case("mppi unicycle mixed", "mppi", "forest", {"agent": "unicycle", **MIXED}),
+    Case("mppi holonomic tv", "mppi", "forest", {"agent": "holonomic", **TV}),
+)
+
+
+def fingerprint(args):
+    """`--fingerprint`: the sha1 of every closed loop's action sequence (float64 bytes) over
+    --steps steps. A change that keeps every plan bit-identical prints the same hashes."""
+    rows = []
+    with threadpool_limits(1):
+        for case in FINGERPRINT_CASES:
+            loop, actions = ClosedLoop(case.controller, case.problem, args.steps, **case.params), []
+            step = loop.ctrl.act
+            loop.ctrl.act = lambda *a, _step=step, _out=actions: _out.append(_step(*a)) or _out[-1]
+            for _ in range(args.steps):
+                loop.step()
+            digest = hashlib.sha1(np.ascontiguousarray(actions, dtype=np.float64).tobytes())
+            rows.append({"case": case.label, "problem": case.problem, "params": case.params,
+                         "sha1": digest.hexdigest()})  # fmt: skip
+    if args.json:
+        print(json.dumps({"steps": args.steps, "results": rows}, indent=2))
+        return 0
+    print(f"dcmppi timing --fingerprint: sha1 of the actions of {args.steps} closed-loop steps")
+    for r in rows:
+        params = ",".join(f"{k}={v}" for k, v in r["params"].items())
+        print(f"{r['sha1']}  {r['case']:<21} {r['problem']:<11} {params}")
     return 0
 
 

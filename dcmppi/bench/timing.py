@@ -405,7 +405,7 @@ def _parts():
         ("  obstacle tracks", costs.TrackIndex, "count"),
         ("importance term", controllers.Controller, "importance"),
         ("Alg. 1 update", mppi, "mppi_update"),
-        ("features", clustered, "cluster_features"),
+        ("features", clustered, "features_of_sums"),
         ("DBSCAN", clustered, "cluster_labels"),
         ("cluster updates", clustered, "cluster_updates"),
     ]

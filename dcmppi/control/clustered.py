@@ -23,7 +23,8 @@ sample is never a noise point). With no cluster at all the step falls back to Al
 samples.
 Each cluster's control sequence is rolled out without noise and the one with the least cost J
 is applied. Labels from dcmppi.control.dbscan (sklearn's labels, compiled with numba); the
-features, per-cluster weights and updates are numba loops (one pass over the samples).
+features (their horizon sums come from the projection pass), per-cluster weights and updates
+are numba loops.
 """
 
 import math
@@ -32,7 +33,7 @@ import numba
 import numpy as np
 from scipy.stats import chi2
 
-from .controllers import _positive, register
+from .controllers import _positive, horizon_sums, register
 from .dbscan import dbscan
 from .mppi import MPPI, effective_sample_size, mppi_update
 
@@ -69,22 +70,19 @@ def cluster_features(eps, S, scale, cost_scale):
             f"cluster_features needs scale (nu,) and S (K,) for eps (N, nu, K) = {eps.shape}; "
             f"got {scale.shape}, {np.shape(S)}"
         )
-    return _features(eps, S, 1.0 / (n * scale), float(cost_scale))
+    return features_of_sums(horizon_sums(eps), S, 1.0 / (n * scale), float(cost_scale))
 
 
 @numba.njit(cache=True)
-def _features(eps, S, inv, cost_scale):
-    """(K, nu + 1) features in one pass; inv (nu,) = 1 / (N scale)."""
-    n, nu, k = eps.shape
-    out = np.zeros((k, nu + 1))
-    for i in range(n):
-        for j in range(nu):
-            for m in range(k):
-                out[m, j] += eps[i, j, m]
+def features_of_sums(sums, S, inv, cost_scale):
+    """cluster_features from the horizon sums (nu, K) of the perturbations; inv (nu,) =
+    1 / (N scale)."""
+    nu, k = sums.shape
+    out = np.empty((k, nu + 1))
     least = S.min()
     for m in range(k):
         for j in range(nu):
-            out[m, j] *= inv[j]
+            out[m, j] = sums[j, m] * inv[j]
         out[m, nu] = (S[m] - least) * cost_scale
     return out
 
@@ -206,11 +204,12 @@ class ClusteredMPPI(MPPI):
             raise ValueError("cost_unit is needed when alpha = 0 (it defaults to alpha)")
         self.cost_unit = self.alpha if cost_unit is None else _positive("cost_unit", cost_unit)
         self._feature_scale = mean_std(self.sigma, self.perturbation, self.N)
+        self._feature_inv = 1.0 / (self.N * self._feature_scale)
         self._cost_scale = self.collision_gap * self.dbscan_eps / self.cost_unit
 
     def _solve(self, state):
-        eps, states, J, S = self.rollouts(state)
-        features = cluster_features(eps, S, self._feature_scale, self._cost_scale)
+        eps, states, J, S, sums = self.rollouts(state, sums=True)
+        features = features_of_sums(sums, S, self._feature_inv, self._cost_scale)
         best = int(np.argmin(S))
         labels = cluster_labels(features, self.dbscan_eps, self.dbscan_min_samples, best)
         self.record(eps, states, J, S)

@@ -126,34 +126,46 @@ class Diagnostics:
 
 
 @numba.njit(cache=True)
-def _clip_box(U0, eps, lower, upper):
+def _clip_box(U0, eps, lower, upper, sums):
     """u = min(max(U0 + eps, lower), upper) and u - U0, both (N, nu, K), in one pass.
-    U0: (N, nu); eps: (N, nu, K), may be a broadcast view; lower, upper: (nu,)."""
-    n, nu, k = eps.shape
+
+    U0: (N, nu); eps: (N, nu, K), or (1, nu, K): the same perturbation at every step (constant),
+    read from one contiguous block; lower, upper: (nu,); sums: (nu, K) zeros that get the
+    horizon sums of u - U0 (step by step, in order), or (0, K) for none.
+    """
+    n, nu = U0.shape
+    k = eps.shape[2]
+    each, add = eps.shape[0] > 1, len(sums) > 0
     u = np.empty((n, nu, k))
     e = np.empty((n, nu, k))
     for i in range(n):
         for c in range(nu):
             u0, lo, hi = U0[i, c], lower[c], upper[c]
-            row, out_u, out_e = eps[i, c], u[i, c], e[i, c]
+            row, out_u, out_e = eps[i if each else 0, c], u[i, c], e[i, c]
             for j in range(k):
                 v = min(max(u0 + row[j], lo), hi)
                 out_u[j] = v
                 out_e[j] = v - u0
+            if add:
+                total = sums[c]
+                for j in range(k):
+                    total[j] += out_e[j]
     return u, e
 
 
 @numba.njit(cache=True)
-def _clip_box_disc(U0, eps, lower, upper, p, q, limit):
+def _clip_box_disc(U0, eps, lower, upper, p, q, limit, sums):
     """As _clip_box, then controls p and q scaled back onto |(u_p, u_q)| <= limit; one pass,
     the scale selected without a branch (1 inside the disc) so the loop vectorises."""
-    n, nu, k = eps.shape
+    n, nu = U0.shape
+    k = eps.shape[2]
+    each, add = eps.shape[0] > 1, len(sums) > 0
     u = np.empty((n, nu, k))
     e = np.empty((n, nu, k))
     for i in range(n):
         for c in range(nu):
             u0, lo, hi = U0[i, c], lower[c], upper[c]
-            row, out_u = eps[i, c], u[i, c]
+            row, out_u = eps[i if each else 0, c], u[i, c]
             for j in range(k):
                 out_u[j] = min(max(u0 + row[j], lo), hi)
         up, uq = u[i, p], u[i, q]
@@ -166,7 +178,25 @@ def _clip_box_disc(U0, eps, lower, upper, p, q, limit):
             u0, out_u, out_e = U0[i, c], u[i, c], e[i, c]
             for j in range(k):
                 out_e[j] = out_u[j] - u0
+            if add:
+                total = sums[c]
+                for j in range(k):
+                    total[j] += out_e[j]
     return u, e
+
+
+@numba.njit(cache=True)
+def horizon_sums(eps):
+    """(nu, K) sums of eps (N, nu, K) over the horizon, step by step in order (the values the
+    clip kernels add up)."""
+    n, nu, k = eps.shape
+    sums = np.zeros((nu, k))
+    for i in range(n):
+        for c in range(nu):
+            row, total = eps[i, c], sums[c]
+            for j in range(k):
+                total[j] += row[j]
+    return sums
 
 
 def _positive(name, value, integer=False, allow_zero=False):
@@ -369,20 +399,27 @@ class Controller:
         half = np.sqrt(0.5)  # each draw N(0, Sigma / 2): the sum has variance Sigma at every step
         return scaled_normal(self.rng, shape, half * self.sigma, half * raw)
 
-    def controls(self, U0, eps):
+    def controls(self, U0, eps, sums=False):
         """Bounded controls project(U0 + eps) (N, nu, K) and the perturbations that remain.
 
         The remaining (projected) perturbation enters the importance term, the weighted update
         and the clustering features, so the update U0 + sum_k w_k eps_k stays within the
-        bounds (they are convex).
+        bounds (they are convex). With sums=True also their horizon sums (nu, K) (the
+        clustering features), added up in the same pass.
         """
         a = self.agent
+        if eps.strides[0] == 0:  # constant: one contiguous (1, nu, K) block for every step
+            eps = eps[:1]
+        out = np.zeros((self.nu if sums else 0, eps.shape[2]))
         if a.norm_axes is None:  # a box: one pass, the same values as np.clip
-            return _clip_box(U0, eps, a.lower, a.upper)
-        if len(a.norm_axes) == 2:  # box and disc (holonomic): one pass, Agent.project's values
-            return _clip_box_disc(U0, eps, a.lower, a.upper, *a.norm_axes, a.norm_limit)
-        u = a.project(U0[:, :, None] + eps)
-        return u, u - U0[:, :, None]
+            u, e = _clip_box(U0, eps, a.lower, a.upper, out)
+        elif len(a.norm_axes) == 2:  # box and disc (holonomic): one pass, Agent.project's values
+            u, e = _clip_box_disc(U0, eps, a.lower, a.upper, *a.norm_axes, a.norm_limit, out)
+        else:
+            u = a.project(U0[:, :, None] + eps)
+            u, e = u, u - U0[:, :, None]
+            out = horizon_sums(e) if sums else out
+        return (u, e, out) if sums else (u, e)
 
     def evaluate(self, x0, u, starts=1):
         """Rollouts and costs. x0: (3,) or (3, R); u: (N, nu, R). Returns states (3, N + 1, R),

@@ -86,28 +86,39 @@ def rollout_time_major(x0, omega, v, dt, starts=1):
       (x_0 .. x_N), so x and y are contiguous (N + 1, S K) arrays for the cost kernels; columns
       s K .. (s + 1) K - 1 start from x0[:, s].
     """
-    n, k = omega.shape
+    if np.ndim(v) == 0:
+        return arc_rollout(x0, omega[:, None], dt, v, starts)
+    return arc_rollout(x0, np.stack([v, omega], axis=1), dt, None, starts)
+
+
+def arc_rollout(x0, u, dt, v=None, starts=1):
+    """rollout_time_major on the agents' control arrays, read in place.
+
+    u: (N, 1, K) turn rates with the one speed v, or (N, 2, K) speeds and turn rates (v None).
+    """
+    n, _, k = u.shape
     out = np.empty((3, n + 1, starts, k))
     out[:, 0] = np.reshape(x0, (3, starts, -1))
-    scalar = np.ndim(v) == 0
-    a, mid, step = _arcs(out, omega, 0.5 * dt, v * dt if scalar else dt)
+    a, mid, step = _arcs(out, u, 0.5 * dt, dt if v is None else v * dt)
     if step is None:  # a sharp turn: sinc beyond its series
-        step = (v * dt if scalar else dt) * sinc(a)
-    if not scalar:
-        step *= v
+        step = (dt if v is None else v * dt) * sinc(a)
+        if v is None:
+            step *= u[:, 0]
     _positions(out, step, np.cos(mid), np.sin(mid))
     return out.reshape(3, n + 1, starts * k)
 
 
 @numba.njit(cache=True)
-def _arcs(out, omega, half_dt, vdt):
+def _arcs(out, u, half_dt, vdt):
     """The arcs of every period: wraps the start headings out[2, 0] to [-pi, pi) and writes
     theta_{i+1} = theta_i + 2 a_i into out[2].
-    out: (3, n + 1, S, K); omega: (n, K).
+    out: (3, n + 1, S, K); u: (n, 1, K) turn rates (one speed: vdt = v dt) or (n, 2, K)
+    speeds and turn rates (vdt = dt).
     Returns a = omega dt / 2 (n, K), the mid-period headings float32(theta_i + a_i) (n, S, K),
-    and the chords v dt sinc(a) (n, K), or None when some |a| is beyond sinc's series. One pass
-    per step over the K samples (no temporaries)."""
-    n, starts, k = omega.shape[0], out.shape[2], out.shape[3]
+    and the chords v dt sinc(a) (n, K) (per-period speeds: (dt sinc(a)) v), or None when some
+    |a| is beyond sinc's series. One pass per step over the K samples (no temporaries)."""
+    n, starts, k = u.shape[0], out.shape[2], out.shape[3]
+    turn = u.shape[1] - 1  # the turn rate's column; a speed's is 0 when there are two
     theta = out[2].reshape(n + 1, starts * k)  # contiguous views: the inner loops vectorise
     for j in range(starts * k):
         theta[0, j] = _wrap(theta[0, j])
@@ -117,13 +128,17 @@ def _arcs(out, omega, half_dt, vdt):
     mid2 = mid.reshape(n, starts * k)
     beyond = 0  # arcs too sharp for the series (a count, not a max: the loop vectorises)
     for i in range(n):
-        ai_row, c_row = a[i], chord[i]
+        ai_row, c_row, omega = a[i], chord[i], u[i, turn]
         for j in range(k):
-            ai = omega[i, j] * half_dt
+            ai = omega[j] * half_dt
             ai_row[j] = ai
             a2 = ai * ai
             c_row[j] = vdt * (1.0 + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 - a2 / 5040.0)))
             beyond += abs(ai) >= _SINC_SERIES_MAX
+        if turn:
+            speed = u[i, 0]
+            for j in range(k):
+                c_row[j] *= speed[j]
         for s in range(starts):
             now, nxt, m = (
                 theta[i, s * k : (s + 1) * k],

@@ -38,12 +38,13 @@ class MPPI(Controller):
     U = U0 + sum w eps, apply U[0], shift U as the next warm start.
     """
 
-    def rollouts(self, state):
-        """Sample, roll out and score: eps (N, nu, K), states (3, N + 1, K), J (K,), S (K,)."""
-        u, eps = self.controls(self.U, self.sample())
+    def rollouts(self, state, sums=False):
+        """Sample, roll out and score: eps (N, nu, K), states (3, N + 1, K), J (K,), S (K,);
+        with sums=True also the horizon sums of eps (nu, K) (see Controller.controls)."""
+        u, eps, *out = self.controls(self.U, self.sample(), sums)
         states, J = self.evaluate(state, u)
         S = J + self.importance(self.U, eps)
-        return eps, states, J, S
+        return eps, states, J, S, *out
 
     def record(self, eps, states, J, S):
         d = self.diagnostics

@@ -7,7 +7,7 @@ fixed. Each control period is an exact arc (dcmppi.control.dynamics).
 import numpy as np
 
 from .. import defaults
-from ..dynamics import dubins_step, rollout_time_major, sinc
+from ..dynamics import arc_rollout, dubins_step, sinc
 from .base import Agent, positive, register_agent
 
 
@@ -31,7 +31,7 @@ class Dubins(Agent):
         return self.v
 
     def rollout(self, x0, u, dt, starts=1):
-        return rollout_time_major(x0, u[:, 0], self.v, dt, starts)
+        return arc_rollout(x0, u, dt, self.v, starts)
 
     def step(self, state, u, dt):
         return dubins_step(state, np.asarray(u, dtype=float)[..., 0], self.v, dt)

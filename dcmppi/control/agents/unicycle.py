@@ -7,7 +7,7 @@ State (x, y, theta); controls the forward speed v in [0, v_max] and the turn rat
 import numpy as np
 
 from .. import defaults
-from ..dynamics import dubins_step, rollout_time_major, sinc
+from ..dynamics import arc_rollout, dubins_step, sinc
 from .base import Agent, positive, register_agent
 from .dubins import arc_jacobians, jacobian_terms
 
@@ -38,9 +38,7 @@ class Unicycle(Agent):
         return np.tile([self.v_max, 0.0], (N, 1))
 
     def rollout(self, x0, u, dt, starts=1):
-        # u's columns are strided views of (N, 2, K): contiguous copies let the kernels vectorise
-        omega, v = np.ascontiguousarray(u[:, 1]), np.ascontiguousarray(u[:, 0])
-        return rollout_time_major(x0, omega, v, dt, starts)
+        return arc_rollout(x0, u, dt, None, starts)  # u: (N, 2, K) speeds, turn rates
 
     def step(self, state, u, dt):
         u = np.asarray(u, dtype=float)

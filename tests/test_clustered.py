@@ -11,6 +11,7 @@ from dcmppi.control.clustered import (
     cluster_labels,
     cluster_updates,
     dbscan_radius,
+    features_of_sums,
     mean_std,
 )
 from dcmppi.control.costs import goal_distance
@@ -69,6 +70,29 @@ def test_features_of_unprojected_samples_are_standard_normal(perturbation):
     F = cluster_features(eps, np.zeros(ctrl.K), ctrl._feature_scale, 1.0)[:, :3]
     np.testing.assert_allclose(F.mean(axis=0), 0, atol=0.06)
     np.testing.assert_allclose(F.std(axis=0), 1, atol=0.05)
+
+
+@pytest.mark.parametrize("agent", ["dubins", "unicycle", "holonomic"])
+@pytest.mark.parametrize("perturbation", ["constant", "time_varying", "mixed"])
+def test_projection_pass_gives_the_features_and_reads_constant_perturbations_alike(
+    agent, perturbation
+):
+    """controls(..., sums=True): the same controls as for the perturbations laid out in full, and
+    horizon sums that make exactly cluster_features' values (the clustered step uses them)."""
+    ctrl = dcmppi.make_controller("clustered", agent=agent, seed=1, perturbation=perturbation)
+    U0 = ctrl.agent.project(
+        np.random.default_rng(2).normal(0, 0.7, (ctrl.N, ctrl.nu)) + ctrl.agent.upper / 2, axis=1
+    )  # some samples land on the bounds
+    eps = ctrl.sample()
+    u, e, sums = ctrl.controls(U0, eps, sums=True)
+    u_full, e_full = ctrl.controls(U0, np.ascontiguousarray(eps))
+    np.testing.assert_array_equal(u, u_full)
+    np.testing.assert_array_equal(e, e_full)
+    assert (u == ctrl.agent.upper[:, None]).any() or (u == ctrl.agent.lower[:, None]).any()
+    S = np.random.default_rng(3).uniform(0, 100, ctrl.K)
+    inv = 1.0 / (ctrl.N * ctrl._feature_scale)
+    expected = cluster_features(e, S, ctrl._feature_scale, 0.5)
+    np.testing.assert_array_equal(features_of_sums(sums, S, inv, 0.5), expected)
 
 
 def recorded_two_valley_steps(task, controller, seeds, **task_params):

@@ -417,7 +417,7 @@ class Controller:
             u, e = _clip_box_disc(U0, eps, a.lower, a.upper, *a.norm_axes, a.norm_limit, out)
         else:
             u = a.project(U0[:, :, None] + eps)
-            u, e = u, u - U0[:, :, None]
+            e = u - U0[:, :, None]
             out = horizon_sums(e) if sums else out
         return (u, e, out) if sums else (u, e)
 

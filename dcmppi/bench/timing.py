@@ -126,7 +126,8 @@ class ClosedLoop:
         self.times = []
 
     def step(self):
-        """One control step; its controller time is appended to `times` [s]."""
+        """One control step; its controller time is appended to `times` [s]. Returns the
+        action."""
         ctrl = self.ctrl
         t0 = time.perf_counter()
         u = ctrl.act(self.state, self.goal, self.static, self.moving, self.model)
@@ -136,6 +137,7 @@ class ClosedLoop:
             self.state = pushed(self.state, self.offsets[len(self.times) - 1])
         if self.moving is not None:
             self.moving = move_crowd(self.moving, self.speed, self.turn, ctrl.dt)
+        return u
 
     def summary(self):
         """Median and p95 ms per step, skipping the first steps (cost-map build, caches)."""
@@ -365,11 +367,8 @@ def fingerprint(args):
     rows = []
     with threadpool_limits(1):
         for case in FINGERPRINT_CASES:
-            loop, actions = ClosedLoop(case.controller, case.problem, args.steps, **case.params), []
-            step = loop.ctrl.act
-            loop.ctrl.act = lambda *a, _step=step, _out=actions: _out.append(_step(*a)) or _out[-1]
-            for _ in range(args.steps):
-                loop.step()
+            loop = ClosedLoop(case.controller, case.problem, args.steps, **case.params)
+            actions = [loop.step() for _ in range(args.steps)]
             digest = hashlib.sha1(np.ascontiguousarray(actions, dtype=np.float64).tobytes())
             rows.append({"case": case.label, "problem": case.problem, "params": case.params,
                          "sha1": digest.hexdigest()})  # fmt: skip

@@ -131,7 +131,7 @@ def _clip_box(U0, eps, lower, upper, sums):
 
     U0: (N, nu); eps: (N, nu, K), or (1, nu, K): the same perturbation at every step (constant),
     read from one contiguous block; lower, upper: (nu,); sums: (nu, K) zeros that get the
-    horizon sums of u - U0 (step by step, in order), or (0, K) for none.
+    horizon sums of u - U0 (step by step, in order), or an empty array for none.
     """
     n, nu = U0.shape
     k = eps.shape[2]
@@ -183,6 +183,9 @@ def _clip_box_disc(U0, eps, lower, upper, p, q, limit, sums):
                 for j in range(k):
                     total[j] += out_e[j]
     return u, e
+
+
+_NO_SUMS = np.zeros((0, 0))  # the clip kernels' `sums` when none are asked for
 
 
 @numba.njit(cache=True)
@@ -410,7 +413,7 @@ class Controller:
         a = self.agent
         if eps.strides[0] == 0:  # constant: one contiguous (1, nu, K) block for every step
             eps = eps[:1]
-        out = np.zeros((self.nu if sums else 0, eps.shape[2]))
+        out = np.zeros((self.nu, eps.shape[2])) if sums else _NO_SUMS
         if a.norm_axes is None:  # a box: one pass, the same values as np.clip
             u, e = _clip_box(U0, eps, a.lower, a.upper, out)
         elif len(a.norm_axes) == 2:  # box and disc (holonomic): one pass, Agent.project's values

@@ -1,0 +1,62 @@
+"""The profile's hook: a controller times the parts of its step through `controller.timer`.
+
+`controller.timer(label)` returns a context manager around one part of a step. The default,
+NO_TIMER, does nothing; `dcmppi timing --profile` sets a StepTimer, which adds up the seconds
+and calls of each label. Labels: "sample", "controls", "evaluate", "rollout", "objective",
+"importance", "update", "features", "DBSCAN", "cluster updates", "prediction".
+"""
+
+import time
+from collections import defaultdict
+
+
+class _Nothing:
+    __slots__ = ()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+
+_NOTHING = _Nothing()
+
+
+def NO_TIMER(label):  # noqa: N802 (a constant that is called)
+    """The default timer: times nothing."""
+    return _NOTHING
+
+
+class StepTimer:
+    """Seconds and calls per label, added up until `take()` returns and clears them."""
+
+    def __init__(self):
+        self.spent = defaultdict(float)
+        self.calls = defaultdict(int)
+
+    def __call__(self, label):
+        return _Part(self, label)
+
+    def take(self):
+        """{label: (seconds, calls)} since the last take(); clears the sums."""
+        out = {label: (self.spent[label], self.calls[label]) for label in self.spent}
+        self.spent.clear()
+        self.calls.clear()
+        return out
+
+
+class _Part:
+    __slots__ = ("timer", "label", "t0")
+
+    def __init__(self, timer, label):
+        self.timer, self.label = timer, label
+
+    def __enter__(self):
+        self.t0 = time.perf_counter()
+        return self
+
+    def __exit__(self, *exc):
+        self.timer.spent[self.label] += time.perf_counter() - self.t0
+        self.timer.calls[self.label] += 1
+        return False

@@ -1,0 +1,17 @@
+"""The one check of a numeric parameter, shared by the controllers, the agents and the tasks."""
+
+import math
+import numbers
+
+
+def positive(name, value, integer=False, allow_zero=False):
+    """`value` as a float (an int with integer=True), or a ValueError naming `name` when it is
+    not a finite number > 0 (>= 0 with allow_zero=True)."""
+    ok_type = isinstance(value, numbers.Integral) if integer else isinstance(value, numbers.Real)
+    if isinstance(value, bool) or not ok_type or not math.isfinite(value):
+        kind = "an integer" if integer else "a finite number"
+        raise ValueError(f"{name} must be {kind}; got {value!r}")
+    if value < 0 or (value == 0 and not allow_zero):
+        bound = ">= 0" if allow_zero else "> 0"
+        raise ValueError(f"{name} must be {bound}; got {value!r}")
+    return int(value) if integer else float(value)

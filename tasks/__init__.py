@@ -1,14 +1,25 @@
-"""dm_control tasks of the dcmppi benchmark.
+"""dm_control tasks of the dcmppi benchmark: the worlds, the MuJoCo plant, the task suite.
 
     from dcmppi import tasks
     env = tasks.load("forest", task_kwargs={"random": 0, "noise": "control"})
 
-Every task takes `random`, `noise` ("none" | "control" | "process"), the robot's `agent`
-("dubins", "unicycle", "holonomic") with its parameters (dubins: v, r_min; others: v_max,
-omega_max) and `robot_radius`, the control-noise variances `Sigma`, the process-noise stds
-`process_velocity_std` and `process_yaw_rate_std`, `time_limit` [s],
+Every task takes `random`, `noise` (one of NOISE_PROFILES: "none" | "control" | "process"),
+the robot's `agent` ("dubins", "unicycle", "holonomic") with its parameters (dubins: v, r_min;
+others: v_max, omega_max) and `robot_radius`, the control-noise variances `Sigma`, the
+process-noise stds `process_velocity_std` and `process_yaw_rate_std`, `time_limit` [s],
 `obstacle_measurement_std` [m] (noisy moving-obstacle positions, headings nan), plus its own
 kwargs.
+
+What lives here: `worlds` (the worlds as plain numpy: generators, obstacle motion, clearance,
+the map and crowd numbers), `navigation` (the plant `Physics` and the task `Navigation`:
+physics timestep, goal tolerance, noise profiles), one module per task family (`forest`,
+`crowd`, `two_valley`, `layout`), `robots` (agent -> actuators), `barn` (BARN's score).
+
+May import MuJoCo, dm_control, numpy and, of the rest of dcmppi, only the robot models
+dcmppi.control.agents (with dcmppi.control.dynamics, their motion), dcmppi.control.defaults
+and dcmppi.control.validation: no controller, nothing of dcmppi.bench or dcmppi.render
+(tests/test_architecture.py). Installed, this folder is the subpackage dcmppi.tasks (see
+dcmppi/__init__.py).
 """
 
 from ._gl import choose_backend
@@ -24,7 +35,7 @@ from dcmppi.control.agents import agent_param_names  # noqa: E402
 from .crowd import Crowd  # noqa: E402
 from .forest import Forest  # noqa: E402
 from .layout import Layout  # noqa: E402
-from .navigation import Navigation, Physics, make_environment  # noqa: E402
+from .navigation import NOISE_PROFILES, Navigation, Physics, make_environment  # noqa: E402
 from .two_valley import Blocked, Crossing  # noqa: E402
 
 SUITE = containers.TaggedTasks()
@@ -124,6 +135,7 @@ def _build(cls, kwargs, environment_kwargs):
 
 
 __all__ = [
+    "NOISE_PROFILES",
     "SUITE",
     "TASKS",
     "default_agent",

@@ -1,6 +1,6 @@
 """`crowd`: 100 moving Dubins cylinders (paper Sec. IV-B; docs/design.md)."""
 
-from dcmppi.control import defaults
+from dcmppi.control.validation import positive
 
 from . import navigation, worlds
 
@@ -18,17 +18,16 @@ class Crowd(navigation.Navigation):
     def __init__(
         self,
         n_obstacles=worlds.CROWD_SIZE,
-        speed_range=defaults.OBSTACLE_SPEED_RANGE,
-        turn_rate_range=defaults.OBSTACLE_TURN_RATE_RANGE,
-        obstacle_radius=defaults.MOVING_OBSTACLE_RADIUS,
+        speed_range=worlds.OBSTACLE_SPEED_RANGE,
+        turn_rate_range=worlds.OBSTACLE_TURN_RATE_RANGE,
+        obstacle_radius=worlds.MOVING_OBSTACLE_RADIUS,
         **kwargs,
     ):
-        if not isinstance(n_obstacles, int) or isinstance(n_obstacles, bool) or n_obstacles < 0:
-            raise ValueError(f"n_obstacles must be an int >= 0, got {n_obstacles!r}")
+        n_obstacles = positive("n_obstacles", n_obstacles, integer=True, allow_zero=True)
         super().__init__(**kwargs)
         self.speed_range = _range("speed_range", speed_range, low=0.0)
         self.turn_rate_range = _range("turn_rate_range", turn_rate_range)
-        self.obstacle_radius = navigation.check_positive("obstacle_radius", obstacle_radius)
+        self.obstacle_radius = positive("obstacle_radius", obstacle_radius)
         self.num_moving = n_obstacles
 
     def generate_world(self, random):

@@ -1,5 +1,7 @@
 """`forest`: the static random forest (paper Table I; docs/design.md)."""
 
+from dcmppi.control.validation import positive
+
 from . import navigation, worlds
 
 
@@ -11,8 +13,7 @@ class Forest(navigation.Navigation):
     """
 
     def __init__(self, n_clusters=worlds.FOREST_CLUSTERS, **kwargs):
-        if not isinstance(n_clusters, int) or isinstance(n_clusters, bool) or n_clusters < 1:
-            raise ValueError(f"n_clusters must be a positive int, got {n_clusters!r}")
+        n_clusters = positive("n_clusters", n_clusters, integer=True)
         super().__init__(**kwargs)
         self.n_clusters = n_clusters
         self.num_static = n_clusters * worlds.FOREST_CYLINDERS_PER_CLUSTER

@@ -24,9 +24,15 @@ from dm_env import specs
 
 from dcmppi.control import defaults
 from dcmppi.control.agents import make_agent
+from dcmppi.control.validation import positive
 
 from . import robots, worlds
 
+PHYSICS_TIMESTEP = 0.01  # [s] MuJoCo timestep: 10 substeps per control step (defaults.DT)
+GOAL_TOLERANCE = 1.0  # [m] the goal is reached within this distance
+# Noise profiles of the experiments (docs/design.md, Experiments).
+NOISE_PROFILES = ("none", "control", "process")
+CONTROL_NOISE = 0.1  # variance of the control noise on every control, in its own units (paper)
 PROCESS_VELOCITY_STD = 0.1  # [m/s] std of the planar velocity disturbance, per axis
 PROCESS_YAW_RATE_STD = 0.1  # [rad/s] std of the yaw-rate disturbance
 OBSTACLE_HALF_HEIGHT = 0.5  # [m]
@@ -166,7 +172,7 @@ class Physics(dm_mujoco.Physics):
 
         goal = m.geom("goal").id
         m.geom_pos[goal, :2] = world.goal
-        m.geom_size[goal, 0] = defaults.GOAL_TOLERANCE
+        m.geom_size[goal, 0] = GOAL_TOLERANCE
 
         moving = world.moving
         self._moving_obs[:, 3] = moving[:, 3]
@@ -354,23 +360,23 @@ class Navigation(base.Task):
         **agent_params,
     ):
         """Args: see the class docstring; time_limit [s] defaults to the task's own."""
-        if noise not in defaults.NOISE_PROFILES:
-            raise ValueError(f"noise must be one of {defaults.NOISE_PROFILES}, got {noise!r}")
+        if noise not in NOISE_PROFILES:
+            raise ValueError(f"noise must be one of {NOISE_PROFILES}, got {noise!r}")
         self.agent = make_agent(self.default_agent if agent is None else agent, **agent_params)
         self.plant = robots.plant(self.agent)
-        self.robot_radius = check_positive("robot_radius", robot_radius)
+        self.robot_radius = positive("robot_radius", robot_radius)
         if Sigma is None:
-            Sigma = [defaults.CONTROL_NOISE] * self.agent.nu
+            Sigma = [CONTROL_NOISE] * self.agent.nu
         self.Sigma = self.agent.variances(Sigma, allow_zero=True)
         self.process_std = np.array(
             [
-                check_positive("process_velocity_std", process_velocity_std, allow_zero=True),
+                positive("process_velocity_std", process_velocity_std, allow_zero=True),
                 process_velocity_std,
-                check_positive("process_yaw_rate_std", process_yaw_rate_std, allow_zero=True),
+                positive("process_yaw_rate_std", process_yaw_rate_std, allow_zero=True),
             ]
         )
-        self._time_limit = None if time_limit is None else check_positive("time_limit", time_limit)
-        self.obstacle_measurement_std = check_positive(
+        self._time_limit = None if time_limit is None else positive("time_limit", time_limit)
+        self.obstacle_measurement_std = positive(
             "obstacle_measurement_std", obstacle_measurement_std, allow_zero=True
         )
         self.noise = noise
@@ -471,7 +477,7 @@ class Navigation(base.Task):
         )
         if physics.collided:
             self._outcome = "collision"
-        elif np.hypot(x - goal[0], y - goal[1]) <= defaults.GOAL_TOLERANCE:
+        elif np.hypot(x - goal[0], y - goal[1]) <= GOAL_TOLERANCE:
             self._outcome = "goal"
         elif not (xmin <= x <= xmax and ymin <= y <= ymax):
             self._outcome = "left_map"
@@ -523,17 +529,6 @@ class Navigation(base.Task):
         )
 
 
-def check_positive(name, value, allow_zero=False):
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}") from None
-    if not np.isfinite(value) or value < 0 or (value == 0 and not allow_zero):
-        bound = ">= 0" if allow_zero else "> 0"
-        raise ValueError(f"{name} must be finite and {bound}, got {value}")
-    return value
-
-
 def make_environment(task: Navigation, environment_kwargs=None) -> control.Environment:
     """The dm_control Environment of `task`: control step defaults.DT, substeps PHYSICS_TIMESTEP."""
     environment_kwargs = dict(environment_kwargs or {})
@@ -546,5 +541,5 @@ def make_environment(task: Navigation, environment_kwargs=None) -> control.Envir
     physics = Physics.for_slots(
         task.num_static, task.num_moving, task.map_bounds, task.robot_radius, task.plant.model
     )
-    physics.model.opt.timestep = defaults.PHYSICS_TIMESTEP
+    physics.model.opt.timestep = PHYSICS_TIMESTEP
     return control.Environment(physics, task, **environment_kwargs)

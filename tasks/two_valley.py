@@ -7,7 +7,7 @@ rollout clustering is for.
 
 import numpy as np
 
-from dcmppi.control import defaults
+from dcmppi.control.validation import positive
 
 from . import navigation, worlds
 
@@ -27,11 +27,9 @@ class Blocked(navigation.Navigation):
 
     def __init__(self, distance=20.0, obstacle_radius=2.0, lateral_jitter=0.0, **kwargs):
         super().__init__(**kwargs)
-        self.distance = navigation.check_positive("distance", distance)
-        self.obstacle_radius = navigation.check_positive("obstacle_radius", obstacle_radius)
-        self.lateral_jitter = navigation.check_positive(
-            "lateral_jitter", lateral_jitter, allow_zero=True
-        )
+        self.distance = positive("distance", distance)
+        self.obstacle_radius = positive("obstacle_radius", obstacle_radius)
+        self.lateral_jitter = positive("lateral_jitter", lateral_jitter, allow_zero=True)
 
     def generate_world(self, random):
         bounds = worlds.map_bounds()
@@ -58,18 +56,18 @@ class Crossing(navigation.Navigation):
         approach_angle=np.pi,
         obstacle_speed=1.0,
         obstacle_turn_rate=0.0,
-        obstacle_radius=defaults.MOVING_OBSTACLE_RADIUS,
+        obstacle_radius=worlds.MOVING_OBSTACLE_RADIUS,
         **kwargs,
     ):
         super().__init__(**kwargs)
-        self.distance = navigation.check_positive("distance", distance)
-        self.meet_fraction = navigation.check_positive("meet_fraction", meet_fraction)
+        self.distance = positive("distance", distance)
+        self.meet_fraction = positive("meet_fraction", meet_fraction)
         if self.meet_fraction > 1.0:
             raise ValueError(f"meet_fraction must be in (0, 1], got {meet_fraction}")
         self.approach_angle = float(approach_angle)
-        self.obstacle_speed = navigation.check_positive("obstacle_speed", obstacle_speed)
+        self.obstacle_speed = positive("obstacle_speed", obstacle_speed)
         self.obstacle_turn_rate = float(obstacle_turn_rate)
-        self.obstacle_radius = navigation.check_positive("obstacle_radius", obstacle_radius)
+        self.obstacle_radius = positive("obstacle_radius", obstacle_radius)
         self.num_moving = 1
 
     def generate_world(self, random):

@@ -13,6 +13,11 @@ import numpy as np
 from dcmppi.control import defaults
 from dcmppi.control.dynamics import wrap_angle
 
+# Maps (docs/design.md, Experiments).
+MAP_SIZE = (75.0, 50.0)  # [m], x in [0, 75], y in [0, 50]
+MIN_START_GOAL_DISTANCE = 30.0  # [m]
+TIME_LIMIT_FACTOR = 3.0  # time limit = 3 x map perimeter / v (paper)
+
 # Forest (docs/design.md, Experiments). FOREST_CLUSTERS is the one density knob: the number of
 # obstacle clusters in the 75 x 50 m map. 65 is chosen so that `mppi` without noise fails
 # in about 1-2 % of environments (paper: 1.2 %). Measured with `dcmppi bench` (mppi, no
@@ -24,6 +29,10 @@ START_GOAL_CLEARANCE = 1.0  # [m] free space around the robot at start and goal
 BORDER = 2.0  # [m] start and goal keep this far from the map edge
 CROWD_SIZE = 100
 CROWD_START_CLEARANCE = 3.0  # [m] no moving obstacle surface this close to the start
+# The crowd's uniform ranges; controllers are told the Gaussian with the same mean and std.
+OBSTACLE_SPEED_RANGE = (0.5, 1.5)  # [m/s]
+OBSTACLE_TURN_RATE_RANGE = (-0.5, 0.5)  # [rad/s]
+MOVING_OBSTACLE_RADIUS = 1.0  # [m]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -51,7 +60,7 @@ class World:
     obstacle_model: np.ndarray
 
 
-def map_bounds(map_size=defaults.MAP_SIZE) -> np.ndarray:
+def map_bounds(map_size=MAP_SIZE) -> np.ndarray:
     """Bounds (4,) of a map [0, w] x [0, h]."""
     return np.array([0.0, 0.0, float(map_size[0]), float(map_size[1])])
 
@@ -59,16 +68,19 @@ def map_bounds(map_size=defaults.MAP_SIZE) -> np.ndarray:
 def default_time_limit(bounds, v=defaults.V) -> float:
     """TIME_LIMIT_FACTOR x the time to drive around the map's perimeter at speed v [s]."""
     xmin, ymin, xmax, ymax = bounds
-    return defaults.TIME_LIMIT_FACTOR * 2.0 * ((xmax - xmin) + (ymax - ymin)) / v
+    return TIME_LIMIT_FACTOR * 2.0 * ((xmax - xmin) + (ymax - ymin)) / v
+
+
+def uniform_mean_std(lo: float, hi: float) -> tuple[float, float]:
+    """Mean and standard deviation of U(lo, hi)."""
+    return 0.5 * (lo + hi), (hi - lo) / math.sqrt(12.0)
 
 
 def crowd_obstacle_model(
-    speed_range=defaults.OBSTACLE_SPEED_RANGE, turn_rate_range=defaults.OBSTACLE_TURN_RATE_RANGE
+    speed_range=OBSTACLE_SPEED_RANGE, turn_rate_range=OBSTACLE_TURN_RATE_RANGE
 ) -> np.ndarray:
     """The Gaussian (4,) v_mean, v_std, omega_mean, omega_std matching the crowd's uniforms."""
-    return np.array(
-        [*defaults.uniform_mean_std(*speed_range), *defaults.uniform_mean_std(*turn_rate_range)]
-    )
+    return np.array([*uniform_mean_std(*speed_range), *uniform_mean_std(*turn_rate_range)])
 
 
 def make_world(
@@ -141,7 +153,7 @@ def sample_free_points(
 
 
 def sample_start_goal(
-    random, static, bounds, robot_radius, min_distance=defaults.MIN_START_GOAL_DISTANCE, **kwargs
+    random, static, bounds, robot_radius, min_distance=MIN_START_GOAL_DISTANCE, **kwargs
 ):
     """Random collision-free start pose (3,) facing the goal, and goal (2,) >= min_distance away."""
     start = sample_free_points(random, 1, static, bounds, robot_radius, **kwargs)[0]
@@ -198,7 +210,7 @@ def generate_forest(
     random,
     n_clusters=FOREST_CLUSTERS,
     robot_radius=defaults.ROBOT_RADIUS,
-    map_size=defaults.MAP_SIZE,
+    map_size=MAP_SIZE,
     **forest_kwargs,
 ) -> World:
     """A static forest world: `forest_obstacles` plus a random start and goal >= 30 m apart."""
@@ -212,10 +224,10 @@ def generate_crowd(
     random,
     n_obstacles=CROWD_SIZE,
     robot_radius=defaults.ROBOT_RADIUS,
-    speed_range=defaults.OBSTACLE_SPEED_RANGE,
-    turn_rate_range=defaults.OBSTACLE_TURN_RATE_RANGE,
-    obstacle_radius=defaults.MOVING_OBSTACLE_RADIUS,
-    map_size=defaults.MAP_SIZE,
+    speed_range=OBSTACLE_SPEED_RANGE,
+    turn_rate_range=OBSTACLE_TURN_RATE_RANGE,
+    obstacle_radius=MOVING_OBSTACLE_RADIUS,
+    map_size=MAP_SIZE,
 ) -> World:
     """The dynamic crowd (docs/design.md): uniform positions, headings, speeds and turn rates.
 

@@ -6,6 +6,7 @@ import pathlib
 import numpy as np
 import pytest
 from absl.testing import absltest
+from dcmppi.tasks import navigation, worlds
 from dm_env import test_utils
 
 from dcmppi import tasks
@@ -167,11 +168,11 @@ def test_action_is_clipped_to_the_turn_rate_bound():
 def test_crowd_reports_the_known_gaussian_not_the_truth():
     env = make("crowd")
     obs = env.reset().observation
-    v_mean, v_std = defaults.uniform_mean_std(*defaults.OBSTACLE_SPEED_RANGE)
-    w_mean, w_std = defaults.uniform_mean_std(*defaults.OBSTACLE_TURN_RATE_RANGE)
+    v_mean, v_std = worlds.uniform_mean_std(*worlds.OBSTACLE_SPEED_RANGE)
+    w_mean, w_std = worlds.uniform_mean_std(*worlds.OBSTACLE_TURN_RATE_RANGE)
     np.testing.assert_allclose(obs["obstacle_model"], [v_mean, v_std, w_mean, w_std])
     assert obs["moving_obstacles"].shape == (12, 4)
-    np.testing.assert_allclose(obs["moving_obstacles"][:, 3], defaults.MOVING_OBSTACLE_RADIUS)
+    np.testing.assert_allclose(obs["moving_obstacles"][:, 3], worlds.MOVING_OBSTACLE_RADIUS)
 
 
 def test_default_time_limit_is_three_perimeters():
@@ -200,7 +201,7 @@ def test_goal_ends_episode_with_reward(tmp_path):
     obs = run(env, 100, policy=lambda i: [0.0])
     assert env.task.outcome == "goal"
     final = obs[-1]["robot_pose"]
-    assert np.hypot(final[0] - 5, final[1]) <= defaults.GOAL_TOLERANCE
+    assert np.hypot(final[0] - 5, final[1]) <= navigation.GOAL_TOLERANCE
     # Driving straight at v = 1 m/s the goal disc (radius 1) is entered after about 4 s.
     assert len(obs) - 1 == pytest.approx(40, abs=1)
 

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from dcmppi.tasks import worlds
+from dcmppi.tasks import navigation, worlds
 
 from dcmppi import tasks
 from dcmppi.control import defaults
@@ -30,7 +30,7 @@ def test_collision_at_the_analytic_distance(robot_radius):
     centre_distance = np.hypot(*(contact["robot_xy"] - obstacle[:2]))
     touching = robot_radius + obstacle[2]
     # Contacts are checked every 10 ms substep: the first one is at most v * 10 ms deep.
-    assert touching - defaults.V * defaults.PHYSICS_TIMESTEP - 1e-6 <= centre_distance < touching
+    assert touching - defaults.V * navigation.PHYSICS_TIMESTEP - 1e-6 <= centre_distance < touching
     assert contact["geom"] == "static_0"
     assert env.task.min_clearance < 0
 
@@ -155,7 +155,7 @@ def test_obstacles_move_every_substep():
         physics.step(1)
         mocap_x.append(physics.data.mocap_pos[0, 0])
     steps = np.diff(mocap_x)
-    np.testing.assert_allclose(steps, -1.0 * defaults.PHYSICS_TIMESTEP, atol=1e-9)
+    np.testing.assert_allclose(steps, -1.0 * navigation.PHYSICS_TIMESTEP, atol=1e-9)
 
 
 def test_dubins_obstacle_reflects_off_a_wall():
@@ -184,7 +184,7 @@ def test_forest_generator_makes_overlapping_clusters_and_far_apart_start_goal():
     assert (solid[:, 2] >= lo).all() and (solid[:, 2] <= hi).all()
     assert len(np.unique(solid[:, 2])) == len(solid)  # different radii
     distance = np.hypot(*(world.goal - world.start[:2]))
-    assert distance >= defaults.MIN_START_GOAL_DISTANCE
+    assert distance >= worlds.MIN_START_GOAL_DISTANCE
     for point in (world.start[:2], world.goal):
         margin = worlds.clearance(point, solid, defaults.ROBOT_RADIUS).min()
         assert margin >= worlds.START_GOAL_CLEARANCE
@@ -212,11 +212,11 @@ def test_crowd_generator_follows_the_spec():
     assert ((moving[:, 1] >= ymin) & (moving[:, 1] <= ymax)).all()
     surface = np.hypot(*(moving[:, :2] - world.start[:2]).T) - moving[:, 3]
     assert surface.min() >= worlds.CROWD_START_CLEARANCE
-    lo, hi = defaults.OBSTACLE_SPEED_RANGE
+    lo, hi = worlds.OBSTACLE_SPEED_RANGE
     assert (world.moving_speed >= lo).all() and (world.moving_speed <= hi).all()
-    lo, hi = defaults.OBSTACLE_TURN_RATE_RANGE
+    lo, hi = worlds.OBSTACLE_TURN_RATE_RANGE
     assert (world.moving_turn_rate >= lo).all() and (world.moving_turn_rate <= hi).all()
-    assert np.hypot(*(world.goal - world.start[:2])) >= defaults.MIN_START_GOAL_DISTANCE
+    assert np.hypot(*(world.goal - world.start[:2])) >= worlds.MIN_START_GOAL_DISTANCE
 
 
 def test_blocked_obstacle_sits_on_the_start_goal_line():
@@ -260,7 +260,7 @@ def test_agent_model_matches_its_mujoco_plant_over_one_second(agent):
             model.v if agent == "dubins" else np.hypot(*u[:-1]) if agent == "holonomic" else u[0]
         )
         omega = abs(u[-1])
-        bound_position = speed * (TAU_PLANAR + defaults.PHYSICS_TIMESTEP + omega * TAU_YAW)
+        bound_position = speed * (TAU_PLANAR + navigation.PHYSICS_TIMESTEP + omega * TAU_YAW)
         bound_heading = omega * TAU_YAW + 1e-3
         report.append(f"u={u}: {position:.4f} m (<= {bound_position:.3f}), {heading:.4f} rad")
         if position > bound_position + 1e-3 or heading > bound_heading:

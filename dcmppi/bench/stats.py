@@ -11,7 +11,7 @@ from collections import defaultdict
 
 import numpy as np
 
-from dcmppi.control.defaults import NOISE_PROFILES
+from dcmppi.tasks import NOISE_PROFILES
 
 Z95 = 1.959963984540054
 BOOTSTRAP = 10_000  # resamples of a bootstrap interval

@@ -1,10 +1,17 @@
-"""The report's failure-rate plot: episode counts on the bars, the paper's values beside them."""
+"""The report's plots (dcmppi.render.plots) from the numbers dcmppi.bench computes: episode
+counts and the paper's values on the failure bars, one box per row, one path per row."""
 
+import numpy as np
 import pytest
 
 pytest.importorskip("matplotlib")
 
-from dcmppi.bench.plots import failure_figure  # noqa: E402
+from dcmppi.bench.stats import summarize  # noqa: E402
+from dcmppi.render.plots import (  # noqa: E402
+    controller_time_figure,
+    failure_figure,
+    paths_figure,
+)
 
 
 def _rows(counts):
@@ -41,7 +48,8 @@ def _paper_marks(fig):
 
 
 def test_every_bar_shows_its_episode_count_and_the_papers_value_where_given():
-    fig = failure_figure(_rows(COUNTS), "static", PAPER, ["mppi", "clustered"])
+    stats = summarize(_rows(COUNTS))
+    fig = failure_figure(stats, ["none", "control"], ["mppi", "clustered"], "static", PAPER)
     ax = fig.axes[0]
     counts = sorted(t.get_text() for t in ax.texts if t.get_text().startswith("n="))
     assert counts == ["n=25", "n=25", "n=40", "n=40"]
@@ -55,5 +63,33 @@ def test_every_bar_shows_its_episode_count_and_the_papers_value_where_given():
 
 
 def test_without_paper_figures_no_marks():
-    fig = failure_figure(_rows(COUNTS), "mine")
+    fig = failure_figure(
+        summarize(_rows(COUNTS)), ["none", "control"], ["mppi", "clustered"], "mine"
+    )
     assert _paper_marks(fig) == []
+
+
+def test_controller_time_has_one_box_per_row_in_order():
+    fig = controller_time_figure({"dc": [4.0, 6.0, 5.0], "mppi": [1.0, 2.0]})
+    ax = fig.axes[0]
+    assert [t.get_text() for t in ax.get_xticklabels()] == ["dc", "mppi"]
+    medians = [line.get_ydata()[0] for line in ax.get_lines() if line.get_color() == "C1"]
+    assert medians == [5.0, 1.5]
+
+
+def test_paths_are_drawn_per_row_with_their_outcome_dashed_for_variants():
+    observation = {
+        "static_obstacles": np.array([[2.0, 1.0, 0.5], [0.0, 0.0, 0.0]]),  # r = 0: padding
+        "moving_obstacles": np.array([[3.0, 3.0, 0.0, 0.4]]),
+        "robot_pose": np.array([0.0, 0.0, 0.0]),
+        "goal": np.array([8.0, 0.0]),
+        "map_bounds": np.array([-1.0, -5.0, 10.0, 5.0]),
+    }
+    line = np.column_stack([np.linspace(0, 8, 5), np.zeros(5)])
+    paths = {"mppi": (line, "goal"), "mppi+margin": (line + [0, 1], "collision")}
+    ax = paths_figure(observation, paths, "static environment 0").axes[0]
+    drawn = {line.get_label(): line for line in ax.get_lines()}
+    assert drawn["mppi: goal"].get_linestyle() == "-"
+    assert drawn["mppi+margin: collision"].get_linestyle() == "--"
+    np.testing.assert_array_equal(drawn["mppi+margin: collision"].get_ydata(), np.ones(5))
+    assert len(ax.patches) == 2  # one static cylinder (the padding is skipped), one moving

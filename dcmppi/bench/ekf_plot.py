@@ -1,4 +1,5 @@
-"""How well dc's obstacle filters estimate speed and turn rate over one crowd episode.
+"""How well dc's obstacle filters estimate speed and turn rate over one crowd episode: the
+errors, and their plot through dcmppi.render.ekf.
 
     from dcmppi.bench.ekf_plot import ekf_spec, plot_ekf_errors
     plot_ekf_errors(ekf_spec(seed=0), "ekf_errors.png")
@@ -11,7 +12,6 @@ compared with the obstacles' true, constant speeds and turn rates.
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 
@@ -86,32 +86,18 @@ def track_errors(spec: EpisodeSpec) -> TrackErrors:
 
 
 def plot_ekf_errors(spec: EpisodeSpec, path, near=NEAR) -> TrackErrors:
-    """Plots the speed and turn-rate errors with their 2-sigma bands over time for the
-    obstacles that came within `near` m of the robot; writes the PNG to `path`."""
-    from dcmppi.render.draw import pyplot
+    """Runs `spec` (see `track_errors`) and writes to the PNG `path` the speed and turn-rate
+    errors with their 2-sigma bands over time for the obstacles that came within `near` m of
+    the robot (drawn by `dcmppi.render.ekf.ekf_error_figure`)."""
+    from dcmppi.render.draw import save_figure
+    from dcmppi.render.ekf import ekf_error_figure
 
-    plt = pyplot()
     errors = track_errors(spec)
     close = np.flatnonzero(errors.clearance.min(axis=0) <= near)
-    fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
-    labels = ("speed error [m/s]", "turn-rate error [rad/s]")
-    for ax, j, label in zip(axes, (0, 1), labels, strict=True):
-        for n, l in enumerate(close):
-            color = plt.cm.tab10(n % 10)
-            e, s = errors.error[:, l, j], 2.0 * errors.std[:, l, j]
-            ax.plot(errors.time, e, color=color, lw=1.0, label=f"obstacle {l}")
-            ax.fill_between(errors.time, -s, s, color=color, alpha=0.12, lw=0)
-        ax.axhline(0.0, color="k", lw=0.5)
-        ax.set_ylabel(label)
-    axes[-1].set_xlabel("time [s]  (lines: estimate - truth; bands: +-2 posterior std)")
-    axes[0].set_title(
+    title = (
         f"dc prediction='ekf', crowd seed {spec.seed}, position noise "
         f"{spec.task_params.get('obstacle_measurement_std', 0)} m: obstacles within {near} m "
         f"({errors.outcome})"
     )
-    if len(close) <= 10:
-        axes[0].legend(fontsize=7, ncol=2)
-    fig.tight_layout()
-    fig.savefig(Path(path), dpi=120)
-    plt.close(fig)
+    save_figure(ekf_error_figure(errors.time, errors.error, errors.std, close, title), path)
     return errors

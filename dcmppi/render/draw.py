@@ -1,4 +1,4 @@
-"""Matplotlib drawing shared by the figures and the report's plots (optional extra `plots`)."""
+"""Matplotlib helpers shared by every plot of dcmppi.render (optional extra `plots`)."""
 
 from __future__ import annotations
 
@@ -17,6 +17,12 @@ def pyplot():
             "plots need matplotlib: pip install 'dcmppi[plots]' (or pass --no-plots)"
         ) from e
     return plt
+
+
+def save_figure(fig, path) -> None:
+    """Write `fig` to the PNG `path` at 120 dpi and close it."""
+    fig.savefig(path, dpi=120)
+    pyplot().close(fig)
 
 
 def draw_world(ax, obs, robot_label: str = "start") -> None:

@@ -1,12 +1,15 @@
-"""Standard normal draws bit-identical to numpy's `Generator.standard_normal`, 3.5 x as fast.
+"""Standard normal draws bit-identical to numpy's `Generator.standard_normal`, compiled.
 
-numpy's Generator.standard_normal costs about 9 ns per normal on our 2-core benchmark machine:
-0.24 ms of the 25 000 normals that one time-varying MPPI step draws. The same draws compiled:
+numpy's Generator.standard_normal is a large share of one time-varying MPPI step (it draws
+n x nu x K normals). The same draws compiled:
 - PCG64 (np.random.default_rng's bit generator): its 128-bit state stepped in registers and
-  numpy's ziggurat over it (below), about 2.7 ns per normal, from 100 normals on;
+  numpy's ziggurat over it (below), from PCG64_MIN_SIZE normals on;
 - any other bit generator: numba's Generator support (numba's port of numpy's ziggurat, with its
-  tables, calling the generator's own next_uint64 and next_double), about 3.5 ns per normal;
-  unboxing the generator costs a few microseconds per call, so draws below 2000 stay numpy's.
+  tables, calling the generator's own next_uint64 and next_double); unboxing the generator has a
+  fixed cost per call, so draws below NUMBA_MIN_SIZE stay numpy's.
+The PCG64 path reads numpy's PCG64 memory through ctypes and numba's private ziggurat tables:
+at first use it draws on a throwaway generator and compares values and state after with
+numpy's; on a mismatch or an error it warns once and PCG64s take numba's path from then on.
 Either way the values are numpy's and the generator's state ends where numpy's would (tests).
 `scaled_normal` scales the draws (and adds an offset) as they are drawn, as the controllers'
 perturbations need, instead of two more passes over them.
@@ -14,19 +17,26 @@ perturbations need, instead of two more passes over them.
 
 import ctypes
 import math
+import warnings
 
 import numba
 import numpy as np
 from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
-from numba.np.random._constants import (
-    fi_double,
-    ki_double,
-    wi_double,
-    ziggurat_nor_inv_r,
-    ziggurat_nor_r,
-)
+
+try:  # numba's private copy of numpy's ziggurat tables (the inline PCG64 path only)
+    from numba.np.random._constants import (
+        fi_double,
+        ki_double,
+        wi_double,
+        ziggurat_nor_inv_r,
+        ziggurat_nor_r,
+    )
+
+    _TABLES_ERROR = None
+except ImportError as error:
+    _TABLES_ERROR = error
 
 NUMBA_MIN_SIZE = 2000  # below this many normals numpy's own call is as quick
 PCG64_MIN_SIZE = 100  # the same for the inline PCG64 draws (below)
@@ -39,7 +49,7 @@ def standard_normal(rng, shape):
       rng: np.random.Generator. shape: int or tuple of ints.
     """
     shape = (shape,) if isinstance(shape, (int, np.integer)) else tuple(shape)
-    size = math.prod(shape)  # math.prod: 0.1 us, np.prod: 3
+    size = math.prod(shape)
     state = _pcg64_state(rng.bit_generator)
     if state is not None and size >= PCG64_MIN_SIZE:
         return _pcg64_normals(state, 1, _ONE, _NO_OFFSET, size).reshape(shape)
@@ -101,7 +111,7 @@ def _scaled_normal(rng, n, scale, add, k):
 # Through numba's Generator support every draw calls the bit generator's next_uint64 through a
 # function pointer, whose 128-bit state then lives in memory. For a PCG64 the state is read once
 # through its ctypes address (checked against bit_generator.state), stepped in registers with
-# LLVM's 128-bit multiply, and written back: the same outputs, about 20 % less time per normal.
+# LLVM's 128-bit multiply, and written back: the same outputs, in less time per normal.
 # The ziggurat's tables are numpy's, from numba's copy (numba.np.random._constants). Like
 # numba's draws, these bypass the generator's lock: one thread per generator.
 
@@ -110,27 +120,68 @@ _PCG64_MULTIPLIER = (
 )
 _ONE, _NO_OFFSET = np.ones(1), np.zeros((0, 1))
 _last_pcg64 = [None, None]  # the last PCG64 seen and the view of its state (or None)
+_inline = []  # [True] once the inline draws passed _inline_check, [False] once they failed it
+# The check's draw: this seed's 20 000 normals reach the ziggurat's tail and wedges (a test).
+_CHECK_SEED, _CHECK_SIZE = 2024, 20_000
 
 
 def _pcg64_state(bit_generator):
     """A writable uint64 (4,) view of a numpy PCG64's state: state (low, high), increment (low,
-    high); None for other bit generators, or when the memory does not hold bit_generator.state
-    (another layout)."""
+    high); None for other bit generators, when the memory does not hold bit_generator.state
+    (another layout), or when the inline draws failed their check (at first use)."""
     if type(bit_generator) is not np.random.PCG64:
         return None
     if _last_pcg64[0] is bit_generator:
         return _last_pcg64[1]
-    address = ctypes.c_void_p.from_address(bit_generator.ctypes.state_address).value
-    view = np.ctypeslib.as_array((ctypes.c_uint64 * 4).from_address(address)) if address else None
-    state = bit_generator.state["state"]
-    if view is not None:
-        low_high = [int(v) for v in view]
-        if low_high[0] | low_high[1] << 64 != state["state"] or (
-            low_high[2] | low_high[3] << 64 != state["inc"]
-        ):
-            view = None
+    if not _inline:
+        cause = _inline_check()
+        _inline.append(cause is None)
+        if cause is not None:
+            warnings.warn(
+                f"dcmppi.control.normal: the inline PCG64 normals are off ({cause}); PCG64 "
+                "draws go through numba's Generator instead: the same values, slower. "
+                "Use the numba and numpy versions pyproject.toml names to get them back.",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+    view = _read_pcg64_state(bit_generator) if _inline[0] else None
     _last_pcg64[:] = bit_generator, view  # keeps the generator, and so the memory, alive
     return view
+
+
+def _read_pcg64_state(bit_generator):
+    """_pcg64_state's view through ctypes, or None when it does not hold bit_generator.state."""
+    address = ctypes.c_void_p.from_address(bit_generator.ctypes.state_address).value
+    if not address:
+        return None
+    view = np.ctypeslib.as_array((ctypes.c_uint64 * 4).from_address(address))
+    state = bit_generator.state["state"]
+    low_high = [int(v) for v in view]
+    if low_high[0] | low_high[1] << 64 != state["state"] or (
+        low_high[2] | low_high[3] << 64 != state["inc"]
+    ):
+        return None
+    return view
+
+
+def _inline_check():
+    """None when the inline draws equal numpy's on a throwaway PCG64 (the values, and the state
+    after), else why not (a phrase)."""
+    if _TABLES_ERROR is not None:
+        return f"numba's ziggurat tables: {_TABLES_ERROR!r}"
+    try:
+        ours, numpys = (np.random.Generator(np.random.PCG64(_CHECK_SEED)) for _ in range(2))
+        view = _read_pcg64_state(ours.bit_generator)
+        if view is None:
+            return "numpy's PCG64 state is not where ctypes reads it"
+        x = _pcg64_normals(view, 1, _ONE, _NO_OFFSET, _CHECK_SIZE).ravel()
+        if not np.array_equal(x, numpys.standard_normal(_CHECK_SIZE)):
+            return "a check draw differs from numpy's"
+        if ours.bit_generator.state != numpys.bit_generator.state:
+            return "the generator state after a check draw differs from numpy's"
+    except Exception as error:  # any failure of the private paths: numba's public one instead
+        return f"{type(error).__name__}: {error}"
+    return None
 
 
 @intrinsic

@@ -293,3 +293,19 @@ def test_every_subcommand_lists_its_choices_and_defaults():
         assert "(default:" in text, name
         for word in words:
             assert word in text, (name, word)
+
+
+def test_the_cli_and_the_bench_workers_tune_malloc_themselves(monkeypatch):
+    """glibc's malloc settings belong to the process: the entry points set them (every
+    `dcmppi` command, each pool and Ray worker), not the Controller in a user's program."""
+    from dcmppi.bench import execution
+
+    calls = []
+    monkeypatch.setattr(cli, "tune_malloc", lambda: calls.append("cli"))
+    monkeypatch.setattr(execution, "tune_malloc", lambda: calls.append("worker"))
+    monkeypatch.setattr(signal, "signal", lambda *args: None)  # keep pytest's Ctrl-C
+    assert cli.main(["tasks"]) == 0
+    execution._init_worker()  # the process pool's initializer
+    result = execution._run_in_worker(EpisodeSpec("no-such-task", "mppi"))  # Ray's function
+    assert "no-such-task" in result["error"]
+    assert calls == ["cli", "worker", "worker"]

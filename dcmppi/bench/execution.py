@@ -3,6 +3,10 @@
 Episodes are independent and fully seeded, so the executor and the worker count change
 only the order in which rows arrive, never their contents. Only the calling process
 writes the database, one committed row per finished episode.
+
+The pool's and Ray's worker processes tune glibc's malloc for the controllers' per-step
+temporaries (`dcmppi.control._malloc.tune_malloc`) before their first episode; an in-process
+run (one local worker) leaves the calling process's malloc as it is.
 """
 
 from __future__ import annotations
@@ -14,6 +18,7 @@ from collections.abc import Iterable
 
 from dcmppi.bench.results import ResultsDB
 from dcmppi.bench.runner import EpisodeSpec, run_episode
+from dcmppi.control._malloc import tune_malloc
 
 EXECUTORS = ("local", "ray")
 _SINGLE_THREAD = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
@@ -112,7 +117,7 @@ def _pool(todo, workers) -> Iterable:
 
     os.environ.update(_SINGLE_THREAD)  # inherited by the workers: no BLAS oversubscription
     ctx = multiprocessing.get_context("spawn")  # no inherited MuJoCo/GL state
-    pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_ignore_sigint)
+    pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker)
     try:
         futures = {pool.submit(run_safely, spec): (key, spec) for key, spec in todo}
         for future in cf.as_completed(futures):
@@ -122,11 +127,19 @@ def _pool(todo, workers) -> Iterable:
         pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _ignore_sigint() -> None:
-    """Workers leave Ctrl-C to the parent, which commits what finished and stops them."""
+def _init_worker() -> None:
+    """A pool worker's setup: malloc tuned (see the module docstring), and Ctrl-C left to the
+    parent, which commits what finished and stops the workers."""
     import signal
 
+    tune_malloc()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _run_in_worker(spec: EpisodeSpec) -> dict:
+    """`run_safely` in a Ray worker, its malloc tuned first (once per process)."""
+    tune_malloc()
+    return run_safely(spec)
 
 
 def _ray(todo, workers, address) -> Iterable:
@@ -152,7 +165,7 @@ def _ray(todo, workers, address) -> Iterable:
             log_to_driver=False,
             runtime_env={"env_vars": env},
         )
-    remote = ray.remote(max_retries=3, num_cpus=1)(run_safely)
+    remote = ray.remote(max_retries=3, num_cpus=1)(_run_in_worker)
     pending = {}
     try:
         pending = {remote.remote(spec): (key, spec) for key, spec in todo}

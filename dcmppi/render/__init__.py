@@ -1,7 +1,16 @@
-"""Pictures: offscreen videos, controller overlays, side-by-side recordings, the paper's figures.
+"""Pictures: every video, figure and plot of dcmppi, drawn from what the caller hands in.
 
-May import dcmppi.control and dcmppi.tasks; never dcmppi.bench. Episodes come in as objects
-(dcmppi.bench.runner.Episode or anything with its attributes), so the benchmark drives them.
+- video: offscreen MuJoCo frames of an episode to MP4 / GIF; overlay: a controller's rollouts,
+  clusters, plan and obstacle futures drawn into those frames; recording: episode videos,
+  side-by-side comparisons;
+- figures: the paper's Fig. 2 and 4 of one planning step; plots: the report's failure rates,
+  controller times and paths; ekf: the EKF error plot; draw: the matplotlib helpers they share
+  (matplotlib is the optional extra `dcmppi[plots]`, imported when a plot is drawn).
+
+May import dcmppi.control and dcmppi.tasks; never dcmppi.bench (tests/test_architecture.py
+checks this). The benchmark computes the numbers (summaries, paths, filter errors) and passes
+them in as arrays and dicts; episodes come in as objects (dcmppi.bench.runner.Episode or
+anything with its attributes).
 """
 
 # The cameras of dcmppi.render.video (here so that the command line lists them without

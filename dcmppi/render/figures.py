@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dcmppi.control.controllers import Diagnostics
+from dcmppi.control import Diagnostics
 from dcmppi.render.draw import COLORS, draw_world, pyplot
 from dcmppi.render.overlay import cluster_rgb
 

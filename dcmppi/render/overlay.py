@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dcmppi.control.controllers import Diagnostics
+from dcmppi.control import Diagnostics
 from dcmppi.render.video import add_polyline
 
 # Tableau-like cluster colours; noise and unclustered samples are grey.

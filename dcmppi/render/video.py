@@ -13,7 +13,8 @@ One GL context and one MuJoCo scene serve all frames, and each frame goes straig
 ffmpeg pipe, so memory does not grow with the episode. A GIF keeps at most GIF_MAX_FRAMES
 frames (see `VideoWriter`); an MP4 keeps every frame. The backend comes from MUJOCO_GL; if it
 is unset, the first of egl, osmesa whose library is installed (set before MuJoCo is imported).
-This is the only dcmppi module that imports MuJoCo; `import dcmppi` does not import it.
+MuJoCo is imported here and by the tasks (dcmppi.tasks.navigation), never by
+`import dcmppi` or dcmppi.control.
 """
 
 import atexit

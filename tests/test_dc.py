@@ -3,27 +3,27 @@
 import numpy as np
 
 import dcmppi
-from dcmppi.control.costs import TrackIndex, collision_counts
-from dcmppi.control.dc import sample_speeds
+from dcmppi.control import Objective, Prediction
+from dcmppi.control.costs import OccupancyGrid, collision_counts, valid_cylinders
+from dcmppi.control.predictors.prior import sample_speeds
 from dcmppi.control.dynamics import obstacle_futures, rollout_time_major
 
 MODEL = np.array([1.0, 0.05, 0.0, 0.02])  # v_mean, v_std, omega_mean, omega_std
 
 
 def straight_cost(moving, seed=0, **params):
-    """DC cost of the straight rollout, and of the same with no moving obstacle."""
+    """DC cost of the straight rollout, and of the same with no moving obstacle: the step's
+    Objective built from the dc predictor's Prediction, called on one rollout."""
     ctrl = dcmppi.make_controller("dc", seed=seed, **params)
-    ctrl.reset()
     state, goal = np.array([0.0, 0.0, 0.0]), np.array([10.0, 0.0])
-    ctrl._goal = goal
-    ctrl._grid = dcmppi.control.costs.OccupancyGrid(None, ctrl.robot_radius)
-    ctrl._prepare_obstacles(state, dcmppi.control.costs.valid_cylinders(moving, "m", 4), MODEL)
-    ctrl._track_index = TrackIndex(ctrl._tracks, ctrl._track_distance)
-    _, J = ctrl.evaluate(state, np.zeros((ctrl.N, 1, 1)))
-    ctrl._prepare_obstacles(state, np.zeros((0, 4)), MODEL)
-    ctrl._track_index = TrackIndex(ctrl._tracks, ctrl._track_distance)
-    _, J0 = ctrl.evaluate(state, np.zeros((ctrl.N, 1, 1)))
-    return J[0], J0[0], ctrl
+    grid = OccupancyGrid(None, ctrl.robot_radius)
+    states = ctrl.agent.rollout(state, np.zeros((ctrl.N, 1, 1)), ctrl.dt)
+    J = []
+    for obstacles in (valid_cylinders(moving, "m", 4), np.zeros((0, 4))):
+        prediction = ctrl.predictor.predict(state, obstacles, MODEL, ctrl.rng)
+        assert isinstance(prediction, Prediction)
+        J.append(Objective(goal, grid, ctrl.alpha, prediction)(states)[0])
+    return J[0], J[1], ctrl
 
 
 def test_crossing_obstacle_raises_straight_cost_receding_does_not():
@@ -42,7 +42,7 @@ def test_cost_equals_brute_force_reference():
     moving = np.column_stack([rng.uniform(-3, 5, (6, 2)), rng.uniform(0, 6, 6), np.full(6, 1.0)])
     ctrl.act(state, goal, None, moving, MODEL)
     d = ctrl.diagnostics
-    futures = d.obstacle_samples
+    futures = d.prediction.futures
     states = d.states  # (K, N + 1, 3)
     radius = ctrl.robot_radius + 1.0
     brute = np.zeros(ctrl.K)
@@ -63,10 +63,10 @@ def test_unreachable_obstacles_are_skipped_exactly():
     state, goal = np.array([10.0, 10.0, 0.0]), np.array([20.0, 10.0])
     far = np.array([[60.0, 40.0, 0.0, 1.0]])
     ctrl.act(state, goal, None, far, MODEL)
-    assert ctrl.diagnostics.obstacle_samples.shape[0] == 0
+    assert ctrl.diagnostics.prediction.futures.shape[0] == 0
     near = np.array([[13.0, 10.0, np.pi, 1.0]])
     ctrl.act(state, goal, None, near, MODEL)
-    fut = ctrl.diagnostics.obstacle_samples
+    fut = ctrl.diagnostics.prediction.futures
     assert fut.shape == (1, ctrl.P, ctrl.N + 1, 2)
     # Skipping is exact: the far obstacle's own futures would hit no rollout.
     x = rollout_time_major(state, np.full((ctrl.N, 3), [-1.0, 0.0, 1.0]), ctrl.agent.v, ctrl.dt)
@@ -92,14 +92,14 @@ def test_prior_futures_come_from_the_known_gaussian_and_the_observed_pose():
     ctrl.act(np.zeros(3), np.array([5.0, 0.0]), None, moving, MODEL)
     speed, turn = sample_speeds(np.random.default_rng(3), MODEL, 2, 6)
     expected = obstacle_futures(moving, speed, turn, 10, ctrl.dt)
-    np.testing.assert_array_equal(ctrl.diagnostics.obstacle_samples, expected)
+    np.testing.assert_array_equal(ctrl.diagnostics.prediction.futures, expected)
 
 
 def test_prior_with_unobserved_headings_draws_them_uniformly():
     ctrl = dcmppi.make_controller("dc", K=8, N=30, P=4000, seed=0)
     moving = np.array([[2.0, 1.0, np.nan, 1.0]])
     ctrl.act(np.zeros(3), np.array([5.0, 0.0]), None, moving, MODEL)
-    ends = ctrl.diagnostics.obstacle_samples[0, :, -1] - moving[0, :2]  # (P, 2) after 3 s
+    ends = ctrl.diagnostics.prediction.futures[0, :, -1] - moving[0, :2]  # (P, 2) after 3 s
     heading = np.arctan2(ends[:, 1], ends[:, 0])
     counts = np.histogram(heading, bins=8, range=(-np.pi, np.pi))[0]
     assert counts.min() > 0.8 * 500 and counts.max() < 1.2 * 500

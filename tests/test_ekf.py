@@ -10,7 +10,7 @@ import dcmppi
 from dcmppi import tasks
 from dcmppi.bench.runner import Episode, EpisodeSpec
 from dcmppi.control.dynamics import dubins_step, wrap_angle
-from dcmppi.control.prediction import ObstacleFilter, dubins_transition
+from dcmppi.control.predictors.filter import ObstacleFilter, dubins_transition
 
 CROWD_MODEL = np.array([1.0, 1.0 / np.sqrt(12.0), 0.0, 1.0 / np.sqrt(12.0)])  # U(0.5, 1.5), U(+-.5)
 DT = 0.1
@@ -178,8 +178,10 @@ def test_dc_rejects_bad_observations_and_parameters():
         ctrl.act(state, goal, None, None, CROWD_MODEL)
     with pytest.raises(ValueError, match="prediction"):
         dcmppi.make_controller("dc", prediction="kalman")
-    with pytest.raises(ValueError, match="measurement_std"):
-        dcmppi.make_controller("dc", measurement_std=0.0)
+    with pytest.raises(ValueError, match="measurement_std must be > 0"):
+        dcmppi.make_controller("dc", prediction="ekf", measurement_std=0.0)
+    with pytest.raises(ValueError, match="unknown parameter.*measurement_std.*prediction 'prior'"):
+        dcmppi.make_controller("dc", measurement_std=0.1)  # the prior takes no sensor noise
 
 
 # --- the tasks' measurement noise --------------------------------------------------------------
@@ -251,13 +253,14 @@ def test_dc_runs_on_the_noisy_crowd_deterministically(prediction):
         runs.append((actions, episode.controller.diagnostics))
     np.testing.assert_array_equal(runs[0][0], runs[1][0])
     d = runs[0][1]
-    assert d.obstacle_samples.shape[1:] == (8, 21, 2)
+    assert d.prediction.futures.shape[1:] == (8, 21, 2)
     if prediction == "ekf":
-        assert d.obstacle_mean.shape == (6, 5) and d.obstacle_cov.shape == (6, 5, 5)
-        np.testing.assert_array_equal(d.obstacle_mean, runs[1][1].obstacle_mean)
-        assert (np.linalg.eigvalsh(d.obstacle_cov) > 0).all()
+        mean, cov = d.prediction.posterior
+        assert mean.shape == (6, 5) and cov.shape == (6, 5, 5)
+        np.testing.assert_array_equal(mean, runs[1][1].prediction.posterior[0])
+        assert (np.linalg.eigvalsh(cov) > 0).all()
     else:
-        assert d.obstacle_mean is None
+        assert d.prediction.posterior is None
 
 
 def test_ekf_futures_follow_the_obstacle_prior_futures_surround_it():
@@ -271,7 +274,7 @@ def test_ekf_futures_follow_the_obstacle_prior_futures_surround_it():
             x = np.array([[2.0 + 1.2 * DT * k, 4.0, np.nan, 1.0]])
             x[0, :2] += 0.1 * rng.standard_normal(2)
             ctrl.act(np.zeros(3), np.array([20.0, 0.0]), None, x, CROWD_MODEL)
-        ends[prediction] = ctrl.diagnostics.obstacle_samples[0, :, -1]  # (P, 2) at t = 3 s
+        ends[prediction] = ctrl.diagnostics.prediction.futures[0, :, -1]  # (P, 2) at t = 3 s
     truth = np.array([2.0 + 1.2 * DT * 40 + 1.2 * 3.0, 4.0])
     ekf, prior = ends["ekf"], ends["prior"]
     assert np.hypot(*(ekf.mean(axis=0) - truth)) < 0.5 and ekf.std(axis=0).max() < 0.5
@@ -283,9 +286,9 @@ def test_ekf_futures_follow_the_obstacle_prior_futures_surround_it():
 def test_diagnostics_keep_each_steps_posterior():
     episode = Episode(noisy_crowd_spec("ekf"))
     episode.step()
-    first = episode.controller.diagnostics.obstacle_cov
+    first = episode.controller.diagnostics.prediction.posterior[1]
     episode.step()
-    assert episode.controller.diagnostics.obstacle_cov is not first
+    assert episode.controller.diagnostics.prediction.posterior[1] is not first
     assert (np.diagonal(first, axis1=1, axis2=2)[:, 2] > 1.0).all()  # heading unknown at first
 
 

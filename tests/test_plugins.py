@@ -12,7 +12,7 @@ import user_controllers
 
 from dcmppi import cli
 from dcmppi.bench import plugins
-from dcmppi.bench.runner import EpisodeSpec, check_specs, make_controller, run_episode
+from dcmppi.bench.runner import EpisodeSpec, check_specs, controller_for, run_episode
 
 SMALL = {"K": 32, "N": 20}
 MODULE = "user_controllers"
@@ -30,20 +30,20 @@ def _spec(controller, own=None, shared=None, task_params=None):
 
 
 def test_module_class_is_built_with_the_arguments_it_takes():
-    c = make_controller(_spec(f"{MODULE}:Straight", {"gain": 2.0}, {"K": 64}))
+    c = controller_for(_spec(f"{MODULE}:Straight", {"gain": 2.0}, {"K": 64}))
     assert isinstance(c, user_controllers.Straight)
     assert c.gain == 2.0 and c.seed == _spec("x").controller_seed()  # K and agent: not taken
-    anything = make_controller(_spec(f"{MODULE}:Anything", {"x": 1}, {"K": 64}))
+    anything = controller_for(_spec(f"{MODULE}:Anything", {"x": 1}, {"K": 64}))
     assert anything.params == {"x": 1, "K": 64, "agent": "dubins", "seed": anything.params["seed"]}
-    careful = make_controller(_spec(f"{MODULE}:Careful", {"care": 3.0}, SMALL, {"v": 1.5}))
+    careful = controller_for(_spec(f"{MODULE}:Careful", {"care": 3.0}, SMALL, {"v": 1.5}))
     assert (careful.care, careful.K, careful.agent.params["v"]) == (3.0, 32, 1.5)
 
 
 def test_own_parameters_must_be_taken_shared_ones_by_some_controller():
     with pytest.raises(ValueError, match="unknown parameter.s. K for controller .* takes gain"):
-        make_controller(_spec(f"{MODULE}:Straight", {"K": 64}))
+        controller_for(_spec(f"{MODULE}:Straight", {"K": 64}))
     with pytest.raises(ValueError, match="unknown parameter.s. care for controller 'mppi'"):
-        make_controller(_spec("mppi", {"care": 1.0}))
+        controller_for(_spec("mppi", {"care": 1.0}))
     # K is taken by mppi only: fine; a misspelt name taken by nobody is refused
     check_specs([_spec(f"{MODULE}:Straight", shared=SMALL), _spec("mppi", shared=SMALL)])
     with pytest.raises(ValueError, match="lamda set for every controller but taken by none"):
@@ -63,7 +63,7 @@ def test_own_parameters_must_be_taken_shared_ones_by_some_controller():
 )
 def test_a_bad_controller_name_gets_one_clear_line(name, message, capsys):
     with pytest.raises(ValueError) as info:
-        plugins.controller_class(name)
+        plugins.resolve_controller(name)
     assert message in str(info.value)
     assert cli.main(["run", "--task", "blocked", "--controller", name]) == 2
     err = capsys.readouterr().err
@@ -75,9 +75,9 @@ def test_a_module_that_fails_to_import_is_reported(tmp_path, monkeypatch):
     (tmp_path / "raising_ctrl.py").write_text("raise RuntimeError('no licence')\n")
     monkeypatch.syspath_prepend(str(tmp_path))
     with pytest.raises(ValueError, match="importing broken_ctrl failed: No module named 'numpyy'"):
-        plugins.controller_class("broken_ctrl:C")
+        plugins.resolve_controller("broken_ctrl:C")
     with pytest.raises(ValueError, match="raised RuntimeError: no licence"):
-        plugins.controller_class("raising_ctrl:C")
+        plugins.resolve_controller("raising_ctrl:C")
 
 
 def _fake_entry_points(monkeypatch, **names):
@@ -102,11 +102,11 @@ def test_entry_points_appear_by_name(monkeypatch, capsys):
         mppi=f"{MODULE}:Careful",  # a built-in name wins
         broken="no_such_module:C",
     )
-    assert plugins.controller_names() == ["clustered", "dc", "mppi", "tube", "broken", "straight"]
-    assert plugins.controller_class("straight") is user_controllers.Straight
-    assert plugins.controller_class("mppi").__name__ == "MPPI"
+    assert plugins.available_controllers() == ["clustered", "dc", "mppi", "tube", "broken", "straight"]
+    assert plugins.resolve_controller("straight") is user_controllers.Straight
+    assert plugins.resolve_controller("mppi").__name__ == "MPPI"
     with pytest.raises(ValueError, match="'broken' .entry point 'no_such_module:C' of group"):
-        plugins.controller_class("broken")
+        plugins.resolve_controller("broken")
     assert cli.main(["controllers"]) == 0
     out = capsys.readouterr().out
     assert f"straight     entry point {MODULE}:Straight (dcmppi.controllers)" in out

@@ -11,7 +11,7 @@ from conftest import frames_of
 
 from dcmppi import cli
 from dcmppi.bench import runner
-from dcmppi.bench.runner import Episode, EpisodeSpec, act, make_controller, make_env
+from dcmppi.bench.runner import Episode, EpisodeSpec, act, controller_for, make_env
 from dcmppi.bench.snapshot import first_step
 from dcmppi.render import video
 from dcmppi.render.figures import PLAN_STYLES, rollouts_figure, write_figures
@@ -100,7 +100,7 @@ def test_figures_mark_the_controllers_actual_outputs(tmp_path, task):
         time_step = env.step(np.zeros(1))
     assert approach > 0  # the obstacle is out of reach at the start
     for name, marked in result["actions"].items():
-        controller = make_controller(EpisodeSpec(task, name, seed=3, controller_params=SMALL))
+        controller = controller_for(EpisodeSpec(task, name, seed=3, controller_params=SMALL))
         controller.reset()
         assert act(controller, time_step.observation)[0] == marked
 

@@ -20,9 +20,9 @@ import inspect
 from pathlib import Path
 
 from dcmppi.control import Controller
+from dcmppi.control import controller_class as builtin_class
 from dcmppi.control import controller_names as builtin_names
-from dcmppi.control.agents import agent_class
-from dcmppi.control.controllers import controller_class as builtin_class
+from dcmppi.control.registry import accepted_params as controller_params
 
 ENTRY_POINT_GROUP = "dcmppi.controllers"
 PROTOCOL = "act(state, goal, static, moving, obstacle_model) and reset()"
@@ -35,14 +35,15 @@ def entry_points() -> dict:
     return {ep.name: ep for ep in found}
 
 
-def controller_names() -> list[str]:
+def available_controllers() -> list[str]:
     """Built-in controllers, then the installed entry points' names."""
     builtin = builtin_names()
     return builtin + sorted(set(entry_points()) - set(builtin))
 
 
-def controller_class(name: str) -> type:
-    """The class a controller name stands for; a ValueError says what is wrong and the fix."""
+def resolve_controller(name: str) -> type:
+    """The class a controller name (built-in, entry point or package.module:ClassName) stands
+    for; a ValueError says what is wrong and the fix."""
     if not isinstance(name, str) or not name:
         raise ValueError(f"a controller name must be a non-empty string; got {name!r}")
     if ":" in name:
@@ -61,7 +62,7 @@ def controller_class(name: str) -> type:
             ) from e
         return _checked(f"{name} ({ep.value})", cls)
     raise ValueError(
-        f"unknown controller {name!r}; valid: {', '.join(controller_names())}, or "
+        f"unknown controller {name!r}; valid: {', '.join(available_controllers())}, or "
         "package.module:ClassName for your own class (`dcmppi controllers` lists them)"
     )
 
@@ -112,12 +113,14 @@ def _checked(name: str, cls) -> type:
     return cls
 
 
-def accepted_params(cls: type, agent) -> set[str] | None:
-    """Keyword arguments `cls` takes (None: any). A dcmppi.Controller takes its own and its
-    agent's parameters; another class what its __init__ names."""
+def accepted_params(cls: type, agent, prediction=None) -> set[str] | None:
+    """Keyword arguments `cls` takes (None: any). A dcmppi.Controller takes its own, its agent's
+    and its predictor's (`prediction`, None: the class's default) parameters; another class what
+    its __init__ names."""
     if issubclass(cls, Controller):
-        names = set(cls.param_names())
-        return names | set(agent_class(agent).param_names) if isinstance(agent, str) else names
+        if not isinstance(agent, str):
+            return set(cls.param_names())
+        return set(controller_params(cls, agent, prediction))
     try:
         parameters = inspect.signature(cls).parameters.values()
     except (TypeError, ValueError):  # no signature to read (a C extension type)
@@ -131,8 +134,8 @@ def build(name: str, own: dict, shared: dict):
     """Construct controller `name` with its `own` parameters (each must be accepted) and those
     of the `shared` ones (seed, robot parameters, an experiment's common parameters) that its
     class accepts. `shared` must hold "agent"."""
-    cls = controller_class(name)
-    accepted = accepted_params(cls, shared["agent"])
+    cls = resolve_controller(name)
+    accepted = accepted_params(cls, shared["agent"], {**shared, **own}.get("prediction"))
     if accepted is not None:
         unknown = sorted(set(own) - accepted)
         if unknown:

@@ -27,7 +27,7 @@ class EpisodeSpec:
     separate stream, the controller's sampling. Every controller of a paired comparison
     runs with the same `seed` for the same environment.
 
-    `controller` is a name `dcmppi.bench.plugins.controller_class` resolves (built-in, entry
+    `controller` is a name `dcmppi.bench.plugins.resolve_controller` resolves (built-in, entry
     point or package.module:ClassName). `controller_params` are its own parameters (each must
     be accepted); `shared_params` are common to the controllers of an experiment and each
     controller takes those its class accepts.
@@ -78,7 +78,7 @@ def _shared_args(spec: EpisodeSpec) -> dict:
     return {**shared, **spec.shared_params, "seed": spec.controller_seed()}
 
 
-def make_controller(spec: EpisodeSpec):
+def controller_for(spec: EpisodeSpec):
     """The controller of `spec`, planning with the task's agent and robot parameters.
 
     It gets its own parameters, and of the seed, the robot parameters and the shared
@@ -93,7 +93,7 @@ def check_specs(specs) -> None:
     """Build the environment of the first spec and the controller of every distinct one, so
     that a bad name, parameter or missing dependency fails before anything is recorded. A
     shared parameter that none of the controllers takes is an error (a misspelt name)."""
-    from dcmppi.bench.plugins import accepted_params, controller_class
+    from dcmppi.bench.plugins import accepted_params, resolve_controller
 
     first = {}
     for spec in specs:
@@ -101,8 +101,10 @@ def check_specs(specs) -> None:
         first.setdefault(key, spec)
     unused = set().union(*(spec.shared_params for spec in first.values()))
     for i, spec in enumerate(first.values()):
-        make_controller(spec)
-        accepted = accepted_params(controller_class(spec.controller), _shared_args(spec)["agent"])
+        controller_for(spec)
+        shared = _shared_args(spec)
+        prediction = {**shared, **spec.controller_params}.get("prediction")
+        accepted = accepted_params(resolve_controller(spec.controller), shared["agent"], prediction)
         unused = set() if accepted is None else unused - accepted
         if i == 0:
             make_env(spec).close()
@@ -157,7 +159,7 @@ def warm_up(spec: EpisodeSpec, observation) -> None:
         default=repr,
     )
     if key not in _WARM:
-        controller = make_controller(spec)
+        controller = controller_for(spec)
         controller.reset()
         act(controller, observation)
         _WARM.add(key)
@@ -230,7 +232,7 @@ class Episode:
         self.start = time.perf_counter()
         self.spec = spec
         self.env = make_env(spec)
-        self.controller = make_controller(spec)
+        self.controller = controller_for(spec)
         self.controller.reset()
         self.time_step = self.env.reset()
         warm_up(spec, self.time_step.observation)

@@ -10,7 +10,7 @@ import dataclasses
 
 import numpy as np
 
-from dcmppi.bench.runner import EpisodeSpec, act, make_controller, make_env
+from dcmppi.bench.runner import EpisodeSpec, act, controller_for, make_env
 from dcmppi.tasks.worlds import dubins_pose
 
 FIGURE_CONTROLLERS = ("mppi", "clustered", "dc")
@@ -56,7 +56,7 @@ def first_step(spec: EpisodeSpec, controllers=FIGURE_CONTROLLERS, approach: int 
     """
     env = make_env(spec)
     time_step = env.reset()
-    probe = make_controller(spec)
+    probe = controller_for(spec)
     horizon = probe.N * probe.dt
     steps = 0
     while not time_step.last() and (
@@ -71,7 +71,7 @@ def first_step(spec: EpisodeSpec, controllers=FIGURE_CONTROLLERS, approach: int 
     observation = time_step.observation
     out = {}
     for name in controllers:
-        controller = make_controller(dataclasses.replace(spec, controller=name))
+        controller = controller_for(dataclasses.replace(spec, controller=name))
         controller.reset()
         out[name] = (controller, act(controller, observation))
     return observation, out, steps

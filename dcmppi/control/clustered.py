@@ -33,9 +33,12 @@ import numba
 import numpy as np
 from scipy.stats import chi2
 
-from .controllers import _positive, horizon_sums, register
+from .agents.projection import horizon_sums
 from .dbscan import dbscan
+from .diagnostics import ClusteredDiagnostics
 from .mppi import MPPI, effective_sample_size, mppi_update
+from .registry import register
+from .validation import positive
 
 DBSCAN_SHARE = 0.16  # share of a standard normal inside the default DBSCAN radius
 DBSCAN_MIN_SAMPLES = 5  # neighbours (self included) of a core sample
@@ -184,6 +187,7 @@ class ClusteredMPPI(MPPI):
     """
 
     own_params = ("dbscan_eps", "dbscan_min_samples", "collision_gap", "cost_unit")
+    diagnostics_class = ClusteredDiagnostics
 
     def __init__(
         self,
@@ -196,35 +200,41 @@ class ClusteredMPPI(MPPI):
     ):
         super().__init__(**params)
         self.dbscan_eps = (
-            dbscan_radius(self.nu) if dbscan_eps is None else _positive("dbscan_eps", dbscan_eps)
+            dbscan_radius(self.nu) if dbscan_eps is None else positive("dbscan_eps", dbscan_eps)
         )
-        self.dbscan_min_samples = _positive("dbscan_min_samples", dbscan_min_samples, integer=True)
-        self.collision_gap = _positive("collision_gap", collision_gap)
+        self.dbscan_min_samples = positive("dbscan_min_samples", dbscan_min_samples, integer=True)
+        self.collision_gap = positive("collision_gap", collision_gap)
         if cost_unit is None and not self.alpha:
             raise ValueError("cost_unit is needed when alpha = 0 (it defaults to alpha)")
-        self.cost_unit = self.alpha if cost_unit is None else _positive("cost_unit", cost_unit)
+        self.cost_unit = self.alpha if cost_unit is None else positive("cost_unit", cost_unit)
         self._feature_scale = mean_std(self.sigma, self.perturbation, self.N)
         self._feature_inv = 1.0 / (self.N * self._feature_scale)
         self._cost_scale = self.collision_gap * self.dbscan_eps / self.cost_unit
 
     def _solve(self, state):
+        timer = self.timer
         eps, states, J, S, sums = self.rollouts(state, sums=True)
-        features = features_of_sums(sums, S, self._feature_inv, self._cost_scale)
-        best = int(np.argmin(S))
-        labels = cluster_labels(features, self.dbscan_eps, self.dbscan_min_samples, best)
+        with timer("features"):
+            features = features_of_sums(sums, S, self._feature_inv, self._cost_scale)
+        with timer("DBSCAN"):
+            best = int(np.argmin(S))
+            labels = cluster_labels(features, self.dbscan_eps, self.dbscan_min_samples, best)
         self.record(eps, states, J, S)
         d = self.diagnostics
         d.labels, d.features = labels, features
         if labels.max(initial=-1) < 0:  # no cluster: Alg. 1 over all samples
-            plan, w = mppi_update(self.U, eps, S, self.lambda_)
+            with timer("update"):
+                plan, w = mppi_update(self.U, eps, S, self.lambda_)
             d.chosen, d.cluster_controls = -1, np.zeros((0, self.N, self.nu))
             d.cluster_costs = np.zeros(0)
         else:
             agent, raw = self.agent, self._raw
             scalar = raw is not None and agent.nu == 1 and agent.lower[0] == -agent.upper[0]
-            U, w = cluster_updates(
-                self.U, eps, S, self.lambda_, labels, raw[0] if scalar else None, agent.upper[0]
-            )
+            with timer("cluster updates"):
+                U, w = cluster_updates(
+                    self.U, eps, S, self.lambda_, labels, raw[0] if scalar else None,
+                    agent.upper[0],
+                )  # fmt: skip
             _, Jm = self.evaluate(state, U.transpose(1, 2, 0))
             best = int(np.argmin(Jm))
             plan, w = U[best], np.where(labels == best, w, 0.0)

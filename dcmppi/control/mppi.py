@@ -2,7 +2,8 @@
 
 import numpy as np
 
-from .controllers import Controller, register
+from .controller import Controller
+from .registry import register
 
 
 def mppi_weights(S, lambda_):
@@ -41,9 +42,14 @@ class MPPI(Controller):
     def rollouts(self, state, sums=False):
         """Sample, roll out and score: eps (N, nu, K), states (3, N + 1, K), J (K,), S (K,);
         with sums=True also the horizon sums of eps (nu, K) (see Controller.controls)."""
-        u, eps, *out = self.controls(self.U, self.sample(), sums)
+        timer = self.timer
+        with timer("sample"):
+            eps = self.sample()
+        with timer("controls"):
+            u, eps, *out = self.controls(self.U, eps, sums)
         states, J = self.evaluate(state, u)
-        S = J + self.importance(self.U, eps)
+        with timer("importance"):
+            S = J + self.importance(self.U, eps)
         return eps, states, J, S, *out
 
     def record(self, eps, states, J, S):
@@ -53,7 +59,8 @@ class MPPI(Controller):
 
     def _solve(self, state):
         eps, states, J, S = self.rollouts(state)
-        plan, w = mppi_update(self.U, eps, S, self.lambda_)
+        with self.timer("update"):
+            plan, w = mppi_update(self.U, eps, S, self.lambda_)
         self.record(eps, states, J, S)
         self.diagnostics.weights, self.diagnostics.ess = w, effective_sample_size(w)
         return self.finish(plan)

@@ -26,9 +26,11 @@ import numba
 import numpy as np
 
 from .agents.dubins import Dubins, jacobian_terms
-from .controllers import _positive, register
+from .diagnostics import TubeDiagnostics
 from .dynamics import wrap_angle
 from .mppi import MPPI, effective_sample_size, mppi_update
+from .registry import register
+from .validation import positive
 
 MAX_DEVIATION = 1.0  # [m]
 TRACKING_POSITION = 0.1  # [m] largest acceptable real-to-nominal position error (Bryson)
@@ -101,6 +103,7 @@ class TubeMPPI(MPPI):
     max_deviation, tracking_position, tracking_heading."""
 
     own_params = ("reset_threshold", "max_deviation", "tracking_position", "tracking_heading")
+    diagnostics_class = TubeDiagnostics
 
     def __init__(
         self,
@@ -116,9 +119,9 @@ class TubeMPPI(MPPI):
         if isinstance(t, bool) or not isinstance(t, (int, float)) or not np.isfinite(t):
             raise ValueError(f"reset_threshold must be a finite number; got {reset_threshold!r}")
         self.reset_threshold = float(t)
-        self.max_deviation = _positive("max_deviation", max_deviation)
-        self.tracking_position = _positive("tracking_position", tracking_position)
-        self.tracking_heading = _positive("tracking_heading", tracking_heading)
+        self.max_deviation = positive("max_deviation", max_deviation)
+        self.tracking_position = positive("tracking_position", tracking_position)
+        self.tracking_heading = positive("tracking_heading", tracking_heading)
         q_pos, q_theta = tracking_position**-2, tracking_heading**-2
         self._Q = np.diag([q_pos, q_pos, q_theta])
         u_max = np.maximum(np.abs(self.agent.lower), np.abs(self.agent.upper))
@@ -131,11 +134,16 @@ class TubeMPPI(MPPI):
     def _solve(self, state):
         z = state.copy() if self.nominal is None else self.nominal
         deviation = float(np.hypot(*(state[:2] - z[:2])))  # tracking error of the last step
-        u, eps = self.controls(self.U, self.sample())
+        timer = self.timer
+        with timer("sample"):
+            eps = self.sample()
+        with timer("controls"):
+            u, eps = self.controls(self.U, eps)
         states, J, S, reset = self._two_solves(z, state, u, eps)
         if reset:
             z = state.copy()
-        plan, w = mppi_update(self.U, eps, S, self.lambda_)
+        with timer("update"):
+            plan, w = mppi_update(self.U, eps, S, self.lambda_)
         self.record(eps, states, J, S)
         d = self.diagnostics
         d.weights, d.ess, d.nominal_reset = w, effective_sample_size(w), bool(reset)
@@ -156,7 +164,8 @@ class TubeMPPI(MPPI):
         same computation, so one batch of K rollouts stands for both. Otherwise one batch of 2K
         rollouts from the two start states (heading increments and sinc terms shared).
         """
-        importance = self.importance(self.U, eps)
+        with self.timer("importance"):
+            importance = self.importance(self.U, eps)
         if np.array_equal(z, state):
             states, J = self.evaluate(state, u)
             S = J + importance

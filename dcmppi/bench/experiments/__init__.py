@@ -212,10 +212,10 @@ class Experiment:
 
 def _own_row(exp: Experiment, item: str) -> Row:
     """A row of one controller named on the command line, labelled with its name."""
-    from dcmppi.bench.plugins import controller_class
+    from dcmppi.bench.plugins import resolve_controller
 
     try:
-        controller_class(item)
+        resolve_controller(item)
     except ValueError as e:
         raise ValueError(
             f"--controllers: {item!r} is no row of {exp.name} ({', '.join(exp._all_labels())}) "

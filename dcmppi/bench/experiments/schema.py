@@ -191,10 +191,10 @@ def _row(source, i, data, resolve) -> dict:
     _table(source, key, data, ROW_KEYS, ("controller",))
     controller = data["controller"]
     if resolve:
-        from dcmppi.bench.plugins import controller_class
+        from dcmppi.bench.plugins import resolve_controller
 
         try:
-            controller_class(controller)
+            resolve_controller(controller)
         except ValueError as e:
             raise ExperimentError(source, f"{key}.controller", str(e)) from None
     label = data.get("label", controller)

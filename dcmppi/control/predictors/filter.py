@@ -39,8 +39,8 @@ Each step is one numpy pass over all L obstacles and their components (batched 5
 
 import numpy as np
 
-from .dynamics import sinc, wrap_angle
-from .normal import standard_normal
+from ..dynamics import sinc, wrap_angle
+from ..normal import standard_normal
 
 STATE = ("x", "y", "heading", "speed", "turn_rate")
 HEADINGS = 8  # heading components per obstacle

@@ -1,0 +1,262 @@
+"""The planner base: its parameters, one control step's frame and the building blocks.
+
+    ctrl = make_controller("clustered", agent="holonomic", K=500, seed=0)
+    ctrl.reset(seed=1)
+    u = ctrl.act(state, goal, static, moving, obstacle_model)   # (nu,) controls to apply
+
+Every controller accepts the shared parameters (defaults from dcmppi.control.defaults,
+explained in docs/design.md): agent and its parameters (dubins: v, r_min; unicycle and holonomic:
+v_max, omega_max), robot_radius, dt, K, N, lambda_, Sigma, gamma, alpha, beta, P, seed,
+perturbation, resolution, obstacle_margin, prediction and its predictor's parameters, plus its
+own. Each step, the predictor turns the moving obstacles into tracks, the step's Objective
+scores rollouts, and the subclass's `_solve` plans with them.
+"""
+
+import numbers
+
+import numpy as np
+
+from . import defaults
+from .agents import make_agent
+from .agents.projection import project_perturbed
+from .costs import RESOLUTION, OccupancyGrid, valid_cylinders
+from .diagnostics import Diagnostics
+from .normal import scaled_normal, standard_normal
+from .objective import Objective
+from .predictors import predictor_class
+from .timer import NO_TIMER
+from .validation import positive
+
+PERTURBATIONS = ("constant", "time_varying", "mixed")
+MAX_COORDINATE = 1e6  # |state| and |goal| bound: far beyond, squared distances overflow
+
+
+class Controller:
+    """Sampling-based controller over an analytic agent model (base of all four).
+
+    Args (keywords; defaults in dcmppi.control.defaults, reasons in docs/design.md):
+      agent: "dubins" (default), "unicycle", "holonomic", another registered name, or an Agent
+        instance; its parameters (dubins: v, r_min; others: v_max, omega_max) go alongside.
+      robot_radius: collision radius [m]. dt: control period [s].
+      K: samples. N: horizon steps. lambda_: cost sensitivity.
+      Sigma: sampling variance of each control, in its own units (default: the agent's, e.g.
+        0.1 (rad/s)^2 for a turn rate, 1 (m/s)^2 for a velocity); a number for 1 control.
+      gamma: weight of the importance term gamma lambda sum_i u_i^T Sigma^-1 eps_i (1: paper).
+      alpha: static collision weight. beta: dynamic collision weight (sampled futures).
+      P: futures per moving obstacle. seed: int, None or np.random.Generator.
+      perturbation: "constant" (one eps per sample over the horizon, paper Sec. IV-A),
+        "time_varying" (independent per step) or "mixed" (the sum of one constant and one
+        time-varying draw, each N(0, Sigma / 2)); default: the agent's.
+      resolution: cost-map cell size [m].
+      obstacle_margin: added to every moving obstacle's radius in the cost [m].
+      prediction: the obstacle predictor: a registered name (dcmppi.control.predictors) or
+        package.module:ClassName; default `default_prediction` ("frozen"; dc: "prior"). Its
+        own parameters go alongside.
+    Attributes: agent, predictor, objective (the last step's), diagnostics (the last step's),
+      timer (the profile's hook, dcmppi.control.timer).
+    """
+
+    name = None
+    default_prediction = "frozen"
+    diagnostics_class = Diagnostics
+
+    def __init__(
+        self,
+        *,
+        agent="dubins",
+        robot_radius=defaults.ROBOT_RADIUS,
+        dt=defaults.DT,
+        K=defaults.K,
+        N=defaults.N,
+        lambda_=defaults.LAMBDA,
+        Sigma=None,
+        gamma=defaults.GAMMA,
+        alpha=defaults.ALPHA,
+        beta=defaults.BETA,
+        P=defaults.P,
+        seed=None,
+        perturbation=None,
+        resolution=RESOLUTION,
+        obstacle_margin=0.0,
+        prediction=None,
+        **other,
+    ):
+        prediction = prediction or self.default_prediction
+        predictor = predictor_class(prediction)
+        predictor_params = {n: other.pop(n) for n in predictor.own_params if n in other}
+        self.agent = make_agent(agent, **other)
+        self.robot_radius = positive("robot_radius", robot_radius, allow_zero=True)
+        self.dt = positive("dt", dt)
+        self.K = positive("K", K, integer=True)
+        self.N = positive("N", N, integer=True)
+        self.lambda_ = positive("lambda_", lambda_)
+        self.Sigma = self.agent.variances(Sigma)
+        self.gamma = positive("gamma", gamma, allow_zero=True)
+        self.alpha = positive("alpha", alpha, allow_zero=True)
+        self.beta = positive("beta", beta, allow_zero=True)
+        self.P = positive("P", P, integer=True)
+        perturbation = self.agent.default_perturbation if perturbation is None else perturbation
+        if perturbation not in PERTURBATIONS:
+            raise ValueError(f"perturbation must be one of {PERTURBATIONS}; got {perturbation!r}")
+        self.perturbation = perturbation
+        self.resolution = positive("resolution", resolution)
+        self.obstacle_margin = positive("obstacle_margin", obstacle_margin, allow_zero=True)
+        if seed is not None and not isinstance(seed, (numbers.Integral, np.random.Generator)):
+            raise ValueError(f"seed must be None, an int or a np.random.Generator; got {seed!r}")
+        self.seed = seed
+        self.prediction = prediction
+        self.predictor = predictor(
+            N=self.N, dt=self.dt, robot_radius=self.robot_radius,
+            max_speed=self.agent.max_speed, alpha=self.alpha, beta=self.beta, P=self.P,
+            obstacle_margin=self.obstacle_margin, **predictor_params,
+        )  # fmt: skip
+        self.sigma = np.sqrt(self.Sigma)
+        # gamma lambda Sigma^-1 of the importance term, per control
+        self._importance_weight = (self.gamma * self.lambda_) / self.Sigma
+        self._grid = None
+        self.objective = None
+        self.timer = NO_TIMER
+        self.rng = None
+        self.reset(seed)
+
+    own_params = (
+        "agent", "robot_radius", "dt", "K", "N", "lambda_", "Sigma", "gamma", "alpha", "beta",
+        "P", "seed", "perturbation", "resolution", "obstacle_margin", "prediction",
+    )  # fmt: skip
+
+    @classmethod
+    def param_names(cls):
+        """Keyword parameters of this controller (each class lists its own in `own_params`);
+        the agent's and the predictor's parameters come on top (`make_controller` checks all)."""
+        names = []
+        for klass in reversed(cls.__mro__):
+            names += [n for n in klass.__dict__.get("own_params", ()) if n not in names]
+        return names
+
+    @property
+    def params(self):
+        """All parameters as a dict (for records): the controller's, its agent's and its
+        predictor's."""
+        out = {n: getattr(self, n) for n in self.param_names() if n not in ("seed", "agent")}
+        out["Sigma"] = self.Sigma.tolist()
+        return {
+            "agent": self.agent.name,
+            **self.agent.params,
+            **out,
+            **self.predictor.params,
+            "seed": None if isinstance(self.seed, np.random.Generator) else self.seed,
+        }
+
+    @property
+    def nu(self):
+        """Number of controls of the agent."""
+        return self.agent.nu
+
+    def reset(self, seed=None):
+        """Start a new episode: the agent's first guess on the next step, the predictor
+        forgets; re-seed when `seed` is given."""
+        if seed is not None:
+            self.seed = seed
+        if self.rng is None or seed is not None:
+            s = self.seed
+            self.rng = s if isinstance(s, np.random.Generator) else np.random.default_rng(s)
+        self.U = None  # set from the agent's first guess at the first step
+        self.predictor.reset()
+        self.diagnostics = self.diagnostics_class()
+
+    # --- one control step -------------------------------------------------------------------
+
+    def act(self, state, goal, static=None, moving=None, obstacle_model=None, bounds=None):
+        """Controls to apply now.
+
+        Args:
+          state: (3,) x, y, theta. goal: (2,) x, y.
+          static: (M, 3) x, y, radius of static cylinders (radius-0 rows ignored), or None.
+          moving: (L, 4) x, y, heading, radius of moving cylinders now (heading nan: not
+            observed), or None.
+          obstacle_model: (4,) v_mean, v_std, omega_mean, omega_std of the moving obstacles.
+          bounds: (4,) xmin, ymin, xmax, ymax of the map, or None: with bounds a state whose
+            centre leaves the map costs alpha, as a collision with the static map does.
+        Returns:
+          (nu,) controls within the agent's bounds (dubins: the turn rate omega).
+        """
+        state = np.asarray(state, dtype=float)
+        goal = np.asarray(goal, dtype=float)
+        if state.shape != (3,) or goal.shape != (2,):
+            raise ValueError(f"state must be (3,) and goal (2,); got {state.shape}, {goal.shape}")
+        if not (np.abs(state) < MAX_COORDINATE).all() or not (np.abs(goal) < MAX_COORDINATE).all():
+            raise ValueError(
+                f"state and goal must be finite and within {MAX_COORDINATE:.0e} (m, rad); "
+                f"got {state}, {goal}"
+            )
+        if self._grid is None or not self._grid.matches(static, bounds):
+            self._grid = OccupancyGrid(static, self.robot_radius, self.resolution, bounds)
+        if self.U is None:
+            self.U = self.agent.project(self.agent.first_guess(state, goal, self.N), axis=1)
+        moving = valid_cylinders(moving, "moving", columns=4, unobserved=2)
+        with self.timer("prediction"):
+            prediction = self.predictor.predict(state, moving, obstacle_model, self.rng)
+            self.objective = Objective(goal, self._grid, self.alpha, prediction)
+        self.diagnostics.prediction = prediction
+        u = self._solve(state)
+        self.diagnostics.action = u
+        return u
+
+    def _solve(self, state):
+        raise NotImplementedError
+
+    # --- building blocks --------------------------------------------------------------------
+
+    def sample(self):
+        """Perturbations eps (N, nu, K) drawn from N(0, Sigma), time-major.
+
+        constant: one draw per sample and control (kept in self._raw (nu, K)), the same at
+        every step; time_varying: independent draws per step; mixed: the sum of one of each,
+        both N(0, Sigma / 2), so that every kind has the per-step variance Sigma that the
+        importance term assumes.
+        """
+        shape = (self.N, self.nu, self.K)
+        self._raw = None
+        if self.perturbation == "time_varying":
+            return scaled_normal(self.rng, shape, self.sigma)
+        raw = standard_normal(self.rng, (self.nu, self.K)) * self.sigma[:, None]
+        if self.perturbation == "constant":
+            self._raw = raw
+            return np.broadcast_to(raw, shape)
+        half = np.sqrt(0.5)  # each draw N(0, Sigma / 2): the sum has variance Sigma at every step
+        return scaled_normal(self.rng, shape, half * self.sigma, half * raw)
+
+    def controls(self, U0, eps, sums=False):
+        """Bounded controls project(U0 + eps) (N, nu, K) and the perturbations that remain
+        (dcmppi.control.agents.projection); with sums=True also their horizon sums (nu, K), the
+        clustering features."""
+        return project_perturbed(self.agent, U0, eps, sums)
+
+    def evaluate(self, x0, u, starts=1):
+        """Rollouts and their costs under this step's objective. x0: (3,) or (3, R);
+        u: (N, nu, R). Returns states (3, N + 1, R), J (R,).
+
+        starts = S > 1: x0 (3, S) start states that all take the R sequences; R becomes S R.
+        """
+        with self.timer("rollout"):
+            states = self.agent.rollout(x0, u, self.dt, starts)
+        with self.timer("objective"):
+            J = self.objective(states)
+        return states, J
+
+    def importance(self, U0, eps):
+        """gamma lambda sum_i u_i^T Sigma^-1 eps_i for each sample (K,)."""
+        w = self._importance_weight
+        S = w[0] * (U0[:, 0] @ eps[:, 0])
+        for j in range(1, self.nu):
+            S += w[j] * (U0[:, j] @ eps[:, j])
+        return S
+
+    def finish(self, plan):
+        """Apply the plan's first controls and warm-start the next step by shifting it.
+
+        plan: (N, nu). Returns plan[0] (nu,).
+        """
+        self.U = np.concatenate([plan[1:], plan[-1:]])
+        self.diagnostics.plan = plan
+        return plan[0].copy()

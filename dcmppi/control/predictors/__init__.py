@@ -1,0 +1,30 @@
+"""Obstacle predictors: what the moving obstacles will do over the horizon, as tracks that the
+objective counts collisions with (the moving-obstacle term of the cost).
+
+Every planner takes `prediction=` a registered name; `make_controller` passes a predictor's own
+parameters (`own_params`) alongside the planner's. Built in:
+- "frozen": the obstacles stay where they are now, weight alpha (mppi, clustered, tube);
+- "prior": P sampled Dubins futures from the population Gaussian, weight beta / P (dc, paper
+  Alg. 3);
+- "ekf": P futures drawn from a Gaussian-sum EKF of each obstacle (parameter measurement_std).
+A new predictor is a `Predictor` subclass registered by name (README, "Your own predictor").
+"""
+
+from . import ekf, frozen, prior  # noqa: F401  (registers the built-in predictors)
+from .base import (
+    Prediction,
+    Predictor,
+    make_predictor,
+    predictor_class,
+    predictor_names,
+    register_predictor,
+)
+
+__all__ = [
+    "Prediction",
+    "Predictor",
+    "make_predictor",
+    "predictor_class",
+    "predictor_names",
+    "register_predictor",
+]

@@ -1,0 +1,125 @@
+"""The predictor interface, its result and the registry."""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+
+import numpy as np
+
+_PREDICTORS: dict[str, type] = {}
+
+
+@dataclasses.dataclass(frozen=True)
+class Prediction:
+    """What a predictor says of the moving obstacles for one control step.
+
+    tracks: (T, N + 1, 2) obstacle centres at the rollout steps t_0 .. t_N.
+    distance: (T,) collision distance of each track (robot radius + obstacle radius + margin)
+      [m]: a state x_i collides with track j when |p_i - tracks[j, i]| <= distance[j].
+    weight: cost of one collision of one state with one track (frozen: alpha; sampled futures:
+      beta theta with theta = 1 / P).
+    futures: (L', P, N + 1, 2) the sampled futures by obstacle, for diagnostics and videos, or
+      None.
+    posterior: (mean (L, 5), cov (L, 5, 5)) of each obstacle's x, y, heading, speed, turn rate
+      where the predictor filters them ("ekf"), or None.
+    """
+
+    tracks: np.ndarray
+    distance: np.ndarray
+    weight: float
+    futures: np.ndarray | None = None
+    posterior: tuple | None = None
+
+
+class Predictor:
+    """Base of the obstacle predictors.
+
+    Args (keywords, given by the planner): N horizon steps, dt control period [s],
+    robot_radius [m], max_speed the agent's fastest planar speed [m/s], alpha and beta the
+    static and dynamic collision weights, P futures per obstacle, obstacle_margin added to
+    every moving obstacle's radius [m]. A subclass lists its own keyword parameters in
+    `own_params` and implements `predict`; `reset` forgets what it learnt in an episode.
+    """
+
+    name = None
+    own_params: tuple[str, ...] = ()
+
+    def __init__(self, *, N, dt, robot_radius, max_speed, alpha, beta, P, obstacle_margin):
+        self.N, self.dt, self.robot_radius = N, dt, robot_radius
+        self.max_speed, self.alpha, self.beta, self.P = max_speed, alpha, beta, P
+        self.obstacle_margin = obstacle_margin
+
+    @property
+    def params(self) -> dict:
+        """The predictor's own parameters by name (for records)."""
+        return {n: getattr(self, n) for n in self.own_params}
+
+    def reset(self):
+        """Start a new episode."""
+
+    def predict(self, state, moving, obstacle_model, rng) -> Prediction:
+        """The tracks of this step.
+
+        Args:
+          state: (3,) the robot's x, y, theta. moving: (L, 4) x, y, heading, radius of the
+            moving obstacles now (heading nan: not observed; padding rows removed).
+          obstacle_model: (4,) v_mean, v_std, omega_mean, omega_std of the obstacles, or None.
+          rng: the planner's np.random.Generator (draw only from it: same seed, same plans).
+        """
+        raise NotImplementedError
+
+    def none(self) -> Prediction:
+        """No track (no moving obstacle near)."""
+        return Prediction(np.zeros((0, self.N + 1, 2)), np.zeros(0), self.alpha)
+
+
+def register_predictor(name):
+    """Class decorator adding a Predictor subclass to the registry under `name`."""
+
+    def add(cls):
+        if not (isinstance(cls, type) and issubclass(cls, Predictor)):
+            raise TypeError(f"predictor {name!r} must be a subclass of Predictor; got {cls!r}")
+        _PREDICTORS[name] = cls
+        cls.name = name
+        return cls
+
+    return add
+
+
+def predictor_names() -> list[str]:
+    """Registered predictor names."""
+    return sorted(_PREDICTORS)
+
+
+def predictor_class(name) -> type:
+    """The class of predictor `name`: a registered name, or `package.module:ClassName` of a
+    Predictor subclass (imported here, so that every worker of a benchmark finds it); a
+    ValueError names the valid ones."""
+    if name in _PREDICTORS:
+        return _PREDICTORS[name]
+    if isinstance(name, str) and ":" in name:
+        return _import(name)
+    raise ValueError(
+        f"unknown prediction {name!r}; valid names: {', '.join(predictor_names())}, or "
+        "package.module:ClassName of your own Predictor subclass"
+    )
+
+
+def _import(name):
+    module_name, _, attr = name.partition(":")
+    try:
+        cls = getattr(importlib.import_module(module_name), attr)
+    except (ImportError, AttributeError) as e:
+        raise ValueError(
+            f"prediction {name!r}: {e}; run from the directory that holds {module_name}, or "
+            "add it to PYTHONPATH"
+        ) from e
+    if not (isinstance(cls, type) and issubclass(cls, Predictor)):
+        raise ValueError(f"prediction {name!r} is not a subclass of dcmppi.control.Predictor")
+    return cls
+
+
+def make_predictor(name, **params) -> Predictor:
+    """A predictor by name with the planner's shared keywords and its own parameters."""
+    return predictor_class(name)(**params)

@@ -1,0 +1,53 @@
+"""Futures drawn from each obstacle's own filter (paper Sec. IV-B), weight beta / P.
+
+Each obstacle's whole state (x, y, heading, speed, turn rate) is drawn P times from the
+posterior of a Gaussian-sum EKF (predictors.filter.ObstacleFilter): started from the population
+prior (obstacle_model) at the first step with obstacles, it takes the observed positions once
+per step (headings are not used), dt apart, with position noise std `measurement_std`. Obstacles
+are matched by index; their number must stay the same until reset(). Each draw becomes a Dubins
+arc as in "prior".
+"""
+
+import dataclasses
+
+from ..validation import positive
+from .base import register_predictor
+from .filter import MEASUREMENT_STD, ObstacleFilter
+from .prior import SampledFutures, check_obstacle_model
+
+
+@register_predictor("ekf")
+class EKF(SampledFutures):
+    """Sampled futures from a Gaussian-sum EKF per obstacle (module docstring).
+
+    Extra args: measurement_std: the obstacle sensor's position noise std [m] (> 0).
+    """
+
+    own_params = ("measurement_std",)
+
+    def __init__(self, *, measurement_std=MEASUREMENT_STD, **shared):
+        self.measurement_std = positive("measurement_std", measurement_std)
+        super().__init__(**shared)
+        self.filter = None
+
+    def reset(self):
+        self.filter = None
+
+    def predict(self, state, moving, obstacle_model, rng):
+        posterior = None
+        if len(moving) or self.filter is not None:  # starts at the first step with obstacles
+            if self.filter is None:
+                model = check_obstacle_model(obstacle_model, self.name)
+                self.filter = ObstacleFilter(model, self.measurement_std, self.dt)
+            self.filter.update(moving[:, :2])
+            posterior = self.filter.posterior()
+        if len(moving) == 0:
+            return _with(self.none(), posterior)
+        drawn = self.filter.sample(rng, self.P)  # (L, P, 5)
+        pose, speed, turn = drawn[..., :3], drawn[..., 3], drawn[..., 4]
+        return _with(self.futures(state, moving, pose, speed, turn), posterior)
+
+
+def _with(prediction, posterior):
+    """The prediction with the filter's posterior for the diagnostics."""
+    return dataclasses.replace(prediction, posterior=posterior)

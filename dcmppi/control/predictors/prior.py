@@ -1,0 +1,102 @@
+"""DC-MPPI's futures (paper Alg. 3): P sampled Dubins arcs per moving obstacle, weight beta / P.
+
+Every moving obstacle gets P futures, each an arc with one constant speed and turn rate drawn from
+the known Gaussian obstacle_model (v_mean, v_std, omega_mean, omega_std), speeds clipped at 0 (a
+Dubins obstacle does not reverse), from the observed position and heading. An obstacle whose
+heading is not observed (nan, a sensor of positions only) gets a heading uniform in [0, 2 pi) per
+future. Reflections off the map boundary are not predicted (5 s horizon). Every future has
+theta = 1 / P (a Monte-Carlo collision probability) and a state x_i pays
+beta * sum_l sum_p theta * 1[|p_i - o_l^p(t_i)| <= robot_radius + r_l] (paper Eq. 30-31).
+
+An obstacle is left out when none of its futures can reach any rollout within the horizon:
+|p_0 - o_l^p(0)| > (v + |v_lp|) N dt + robot_radius + r_l for every p, with v the agent's top
+speed and r_l the obstacle's radius plus `obstacle_margin`. This is exact, not a heuristic.
+
+Moving obstacles enter the cost only through these futures (their t = 0 positions included,
+with weight beta), not also as alpha-weighted static obstacles: the paper's augmented cost
+(Eq. 30-31) adds the beta term to the static-map cost psi, and alpha = 100 beta would otherwise
+dominate the prediction and turn dc back into clustered MPPI around frozen obstacles.
+"""
+
+import numpy as np
+
+from ..dynamics import obstacle_futures
+from ..normal import standard_normal
+from .base import Prediction, Predictor, register_predictor
+
+
+def sample_speeds(rng, obstacle_model, L, P):
+    """Speeds and turn rates (L, P) each of P futures of L obstacles from the known Gaussian.
+
+    obstacle_model: (4,) v_mean, v_std, omega_mean, omega_std. Speeds are clipped at 0.
+    """
+    v_mean, v_std, w_mean, w_std = obstacle_model
+    z = standard_normal(rng, (2, L, P))
+    return np.maximum(v_mean + v_std * z[0], 0.0), w_mean + w_std * z[1]
+
+
+def check_obstacle_model(obstacle_model, name="prior"):
+    """The (4,) array v_mean, v_std, omega_mean, omega_std, or a ValueError."""
+    if obstacle_model is None:
+        raise ValueError(
+            f"prediction {name!r} needs obstacle_model (v_mean, v_std, omega_mean, omega_std)"
+        )
+    model = np.asarray(obstacle_model, dtype=float)
+    if model.shape != (4,) or not np.isfinite(model).all() or model[1] < 0 or model[3] < 0:
+        raise ValueError(
+            f"obstacle_model must be (4,) finite v_mean, v_std >= 0, omega_mean, "
+            f"omega_std >= 0; got {obstacle_model}"
+        )
+    return model
+
+
+class SampledFutures(Predictor):
+    """Base of the predictors of P Dubins futures per obstacle (weight beta / P)."""
+
+    def futures(self, state, moving, pose, speed, turn):
+        """The Prediction of the futures of the obstacles within reach.
+
+        pose: (L, 1, 3) or (L, P, 3) start poses; speed, turn: (L, P) of the moving (L, 4).
+        """
+        radius = moving[:, 3] + self.obstacle_margin
+        reach = (self.max_speed + np.abs(speed)) * self.N * self.dt + self.robot_radius
+        reach = reach + radius[:, None]
+        gap = np.hypot(pose[..., 0] - state[0], pose[..., 1] - state[1])  # (L, 1) or (L, P)
+        near = (gap <= reach).any(axis=1)
+        n = int(near.sum())
+        pose = np.broadcast_to(pose[near], (n, self.P, 3))
+        futures = obstacle_futures(
+            pose.reshape(-1, 3), speed[near].reshape(-1, 1), turn[near].reshape(-1, 1),
+            self.N, self.dt,
+        ).reshape(n, self.P, self.N + 1, 2)  # fmt: skip
+        return Prediction(
+            futures.reshape(-1, self.N + 1, 2),
+            np.repeat(radius[near] + self.robot_radius, self.P),
+            self.beta / self.P,
+            futures,
+        )
+
+    def none(self):
+        return Prediction(
+            np.zeros((0, self.N + 1, 2)),
+            np.zeros(0),
+            self.beta / self.P,
+            np.zeros((0, self.P, self.N + 1, 2)),
+        )
+
+
+@register_predictor("prior")
+class Prior(SampledFutures):
+    """P futures per obstacle from the population Gaussian (module docstring)."""
+
+    def predict(self, state, moving, obstacle_model, rng):
+        if len(moving) == 0:
+            return self.none()
+        model = check_obstacle_model(obstacle_model, self.name)
+        speed, turn = sample_speeds(rng, model, len(moving), self.P)
+        pose = moving[:, None, :3]  # (L, 1, 3): the futures of an obstacle start alike
+        unseen = np.isnan(moving[:, 2])
+        if unseen.any():
+            pose = np.repeat(pose, self.P, axis=1)
+            pose[unseen, :, 2] = rng.uniform(0.0, 2.0 * np.pi, (unseen.sum(), self.P))
+        return self.futures(state, moving, pose, speed, turn)

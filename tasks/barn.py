@@ -31,8 +31,6 @@ import functools
 import math
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import dijkstra
 
 RESOLUTION = 0.05  # [m] grid of the shortest-path search
 MOVES = np.array(
@@ -119,6 +117,10 @@ def _clearance_field(cyl, robot_radius, xs, ys):
 
 def _grid_path(cyl, robot_radius, start, goal, bounds, h):
     """(V, 2) start, the grid nodes of the shortest 16-connected path, goal; None if none."""
+    # here, not at the top: loading the tasks does not load scipy
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import dijkstra
+
     xs = np.arange(bounds[0] + h / 2, bounds[2], h)
     ys = np.arange(bounds[1] + h / 2, bounds[3], h)
     field = _clearance_field(cyl, robot_radius, xs, ys)

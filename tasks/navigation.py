@@ -19,7 +19,6 @@ import numpy as np
 from dm_control import mujoco as dm_mujoco
 from dm_control.mujoco.wrapper import core
 from dm_control.rl import control
-from dm_control.suite import base
 from dm_env import specs
 
 from dcmppi.control import defaults
@@ -320,7 +319,9 @@ class Physics(dm_mujoco.Physics):
         return self._clearance
 
 
-class Navigation(base.Task):
+# A dm_control.rl.control.Task, not dm_control.suite's base.Task: importing dm_control.suite
+# loads every suite domain, scipy with them.
+class Navigation(control.Task):
     """Drive a robot to the goal without touching an obstacle or leaving the map.
 
     The robot is an agent of docs/design.md (`agent`: "dubins" by default, "unicycle",
@@ -380,7 +381,9 @@ class Navigation(base.Task):
             "obstacle_measurement_std", obstacle_measurement_std, allow_zero=True
         )
         self.noise = noise
-        super().__init__(random=random)
+        self._random = (
+            random if isinstance(random, np.random.RandomState) else np.random.RandomState(random)
+        )
         self._noise_random = np.random.RandomState(0)
         self._measurement_random = np.random.default_rng(0)
         self.world = None
@@ -408,6 +411,11 @@ class Navigation(base.Task):
         if self._time_limit is not None:
             return self._time_limit
         return worlds.default_time_limit(self.map_bounds, self.agent.max_speed)
+
+    @property
+    def random(self) -> np.random.RandomState:
+        """The task's RandomState: each episode's world and noise seeds come from it."""
+        return self._random
 
     # Results ----------------------------------------------------------------------------------
 
@@ -446,7 +454,7 @@ class Navigation(base.Task):
             map_bounds=world.map_bounds,
             clearance=None,
         )
-        super().initialize_episode(physics)
+        self.after_step(physics)  # the start's own outcome (in contact, at the goal)
 
     def _command(self, u):
         """Actuator targets of the controls u (nu,), already within the bounds."""

@@ -1,14 +1,37 @@
-"""The layout's rules: what each subpackage may import, and no import cycles."""
+"""The layout's rules: where each subpackage lives, what it may import, no import cycles."""
 
 import ast
+import importlib
 import pathlib
 import subprocess
 import sys
 
 import pytest
 
+import dcmppi
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10
+    import tomli as tomllib
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-PACKAGES = {"dcmppi": ROOT / "dcmppi", "dcmppi.tasks": ROOT / "tasks"}
+PACKAGES = {
+    "dcmppi": ROOT / "dcmppi",
+    **{name: ROOT / folder for name, folder in dcmppi.TOP_LEVEL_FOLDERS.items()},
+}
+# What each package may import of the rest of dcmppi, anywhere (functions included).
+MAY_IMPORT = {
+    "dcmppi.control": (),
+    # the robots' models (dynamics: the motion they are built on), numbers and checks; no planner
+    "dcmppi.tasks": (
+        "dcmppi.control.agents",
+        "dcmppi.control.defaults",
+        "dcmppi.control.dynamics",
+        "dcmppi.control.validation",
+    ),
+    "dcmppi.render": ("dcmppi.control", "dcmppi.tasks"),
+}
 
 
 def _loaded_after(statement):
@@ -21,13 +44,25 @@ def _loaded_after(statement):
 
 
 def test_control_imports_no_mujoco_tasks_bench_or_render():
-    loaded = _loaded_after("import dcmppi.control")
+    modules = sorted(_module_name(p) for p in (ROOT / "dcmppi" / "control").rglob("*.py"))
+    loaded = _loaded_after("; ".join(f"import {m}" for m in modules))
+    assert set(modules) <= loaded  # the test saw every module of the package
     forbidden = {"mujoco", "dm_control", "dcmppi.tasks", "dcmppi.bench", "dcmppi.render"}
     bad = {
         m for m in loaded if m.split(".")[0] in forbidden or ".".join(m.split(".")[:2]) in forbidden
     }
     assert not bad, f"dcmppi.control loaded {sorted(bad)}"
-    assert "dcmppi.control.mppi" in loaded  # the test saw the package itself
+
+
+def test_tasks_import_no_planner_scikit_learn_or_scipy():
+    loaded = _loaded_after("import dcmppi.tasks")
+    assert "dcmppi.tasks.navigation" in loaded  # the test saw the package itself
+    planners = {f"dcmppi.control.{m}" for m in ("mppi", "clustered", "dc", "tube")}
+    assert not loaded & planners
+    assert not {m for m in loaded if m.split(".")[0] == "sklearn"}
+    # numba imports scipy's top-level package (its version check); nothing more of scipy
+    scipy = {m for m in loaded - _loaded_after("import numba") if m.split(".")[0] == "scipy"}
+    assert not scipy, f"dcmppi.tasks loaded {sorted(scipy)}"
 
 
 def test_render_imports_no_bench():
@@ -47,8 +82,10 @@ def _module_name(path):
     raise AssertionError(path)
 
 
-def _imports(path, name):
-    """dcmppi modules that `path` (module `name`) imports anywhere, functions included."""
+def _imports(path, name, bases=True):
+    """dcmppi names that `path` (module `name`) imports anywhere, functions included: what each
+    statement names (`import a.b`: a.b; `from a import b`: a.b) and, with bases=True, the
+    module of every `from` import (a), which runs too."""
     is_package = path.name == "__init__.py"
     out = set()
     for node in ast.walk(ast.parse(path.read_text())):
@@ -59,9 +96,40 @@ def _imports(path, name):
             if node.level:
                 parent = name.split(".")[: len(name.split(".")) - node.level + is_package]
                 base = ".".join(parent + ([base] if base else []))
-            out.add(base)
+            if bases:
+                out.add(base)
             out |= {f"{base}.{a.name}" for a in node.names}
-    return {m for m in out if m.startswith("dcmppi")}
+    return {m for m in out if m.split(".")[0] == "dcmppi"}
+
+
+def _within(module, packages):
+    return any(module == p or module.startswith(p + ".") for p in packages)
+
+
+@pytest.mark.parametrize("package", sorted(MAY_IMPORT))
+def test_a_package_imports_only_what_its_rule_allows(package):
+    root = PACKAGES.get(package, ROOT.joinpath(*package.split(".")))
+    allowed = (package, *MAY_IMPORT[package])
+    files = sorted(root.rglob("*.py"))
+    assert files
+    bad = {
+        f"{path.relative_to(ROOT)}: {target}"
+        for path in files
+        for target in _imports(path, _module_name(path), bases=False)
+        if not _within(target, allowed)
+    }
+    assert not bad, f"{package} may import only {allowed[1:]} of dcmppi; found {sorted(bad)}"
+
+
+def test_pyproject_installs_each_top_level_folder_as_the_package_maps_it():
+    setuptools = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    assert setuptools["package-dir"] == {"dcmppi": "dcmppi", **dcmppi.TOP_LEVEL_FOLDERS}
+    assert set(dcmppi.TOP_LEVEL_FOLDERS) <= set(setuptools["packages"])
+    for name, folder in dcmppi.TOP_LEVEL_FOLDERS.items():
+        # a source checkout finds the folder through the package's path: same last name
+        assert name.split(".")[-1] == folder
+        module = importlib.import_module(name)
+        assert pathlib.Path(module.__file__) == ROOT / folder / "__init__.py"
 
 
 def test_no_module_imports_another_in_a_circle():

@@ -65,6 +65,18 @@ def test_tasks_import_no_planner_scikit_learn_or_scipy():
     assert not scipy, f"dcmppi.tasks loaded {sorted(scipy)}"
 
 
+def test_the_package_loads_the_controller_api_on_first_use():
+    loaded = _loaded_after("import dcmppi")
+    assert not {m for m in loaded if m.startswith("dcmppi.")}
+    from dcmppi import control
+
+    api = [n for n in dcmppi.__all__ if n != "__version__"]
+    assert all(getattr(dcmppi, n) is getattr(control, n) for n in api)
+    assert {"control", *dcmppi.__all__} <= set(dir(dcmppi))
+    with pytest.raises(AttributeError, match="no attribute 'make_controler'"):
+        dcmppi.make_controler  # noqa: B018
+
+
 def test_render_imports_no_bench():
     modules = [p.stem for p in (ROOT / "dcmppi" / "render").glob("*.py") if p.stem != "__init__"]
     loaded = _loaded_after("; ".join(f"import dcmppi.render.{m}" for m in modules))

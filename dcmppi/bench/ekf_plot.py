@@ -5,8 +5,8 @@ errors, and their plot through dcmppi.render.ekf.
     plot_ekf_errors(ekf_spec(seed=0), "ekf_errors.png")
 
 The episode is the crowd with noisy obstacle positions (task obstacle_measurement_std) driven by
-dc with prediction="ekf"; each step's posterior (Diagnostics.obstacle_mean, obstacle_cov) is
-compared with the obstacles' true, constant speeds and turn rates.
+dc with prediction="ekf"; each step's posterior (Diagnostics.prediction.posterior) is compared
+with the obstacles' true, constant speeds and turn rates.
 """
 
 from __future__ import annotations
@@ -54,18 +54,21 @@ class TrackErrors:
 
 
 def track_errors(spec: EpisodeSpec) -> TrackErrors:
-    """Runs `spec` (dc with prediction="ekf" on a task with moving obstacles) and records the
-    speed and turn-rate posterior of every obstacle at every step."""
-    if spec.controller != "dc" or spec.controller_params.get("prediction") != "ekf":
-        raise ValueError('track_errors needs controller "dc" with prediction="ekf"')
+    """Runs `spec` (a planner with prediction="ekf" on a task with moving obstacles) and
+    records the speed and turn-rate posterior of every obstacle at every step."""
+    if spec.controller_params.get("prediction") != "ekf":
+        raise ValueError(
+            'track_errors needs prediction="ekf" in the controller parameters, e.g. ekf_spec()'
+        )
     means, variances, times, clearances, truth = [], [], [], [], []
 
     def record(episode):
         # After step k the diagnostics hold the posterior of observation k - 1.
-        d = episode.controller.diagnostics
-        if d.obstacle_mean is not None:
-            means.append(d.obstacle_mean[:, 3:])
-            variances.append(np.diagonal(d.obstacle_cov, axis1=1, axis2=2)[:, 3:])
+        prediction = episode.controller.diagnostics.prediction  # None before the first step
+        if prediction is not None and prediction.posterior is not None:
+            mean, cov = prediction.posterior
+            means.append(mean[:, 3:])
+            variances.append(np.diagonal(cov, axis1=1, axis2=2)[:, 3:])
         physics, world = episode.env.physics, episode.env.task.world
         obstacles = physics.moving_obstacles()
         gap = np.hypot(*(obstacles[:, :2] - physics.robot_pose()[:2]).T)
@@ -95,7 +98,7 @@ def plot_ekf_errors(spec: EpisodeSpec, path, near=NEAR) -> TrackErrors:
     errors = track_errors(spec)
     close = np.flatnonzero(errors.clearance.min(axis=0) <= near)
     title = (
-        f"dc prediction='ekf', crowd seed {spec.seed}, position noise "
+        f"{spec.controller} prediction='ekf', {spec.task} seed {spec.seed}, position noise "
         f"{spec.task_params.get('obstacle_measurement_std', 0)} m: obstacles within {near} m "
         f"({errors.outcome})"
     )

@@ -23,7 +23,7 @@ import numpy as np
 
 from dcmppi.control import Diagnostics
 from dcmppi.render.draw import COLORS, draw_world, pyplot
-from dcmppi.render.overlay import cluster_rgb
+from dcmppi.render.overlay import cluster_labels, cluster_rgb, obstacle_futures
 
 
 def plan_cost(controller, state) -> float:
@@ -71,14 +71,15 @@ def write_figures(observation, runs, out_dir, title: str) -> dict:
         d = ctrl.diagnostics
         J0 = d.J.min()
         value = np.exp(-(d.J - J0) / ctrl.lambda_)
-        ax.scatter(d.eps[:, 0, j], value, s=9, c=cluster_rgb(d.labels, len(value)), lw=0)
+        labels = cluster_labels(d)
+        ax.scatter(d.eps[:, 0, j], value, s=9, c=cluster_rgb(labels, len(value)), lw=0)
         star = np.exp(-(plan_cost(ctrl, state) - J0) / ctrl.lambda_)
         ax.plot(
             action[j] - U0, star, "*", ms=18, color="gold", mec="k",
             label=f"applied {action[j]:+.3f}",
         )  # fmt: skip
-        clusters = 0 if d.labels is None else int(d.labels.max()) + 1
-        ax.set_title(f"{name}" + (f": {clusters} clusters" if d.labels is not None else ""))
+        clusters = "" if labels is None else f": {int(labels.max()) + 1} clusters"
+        ax.set_title(f"{name}{clusters}")
         ax.set_xlabel(f"perturbation of {control} (first step)")
         ax.legend(loc="upper right", fontsize=8)
     axes[0].set_ylabel("value exp(-(J - min J) / lambda)")
@@ -110,13 +111,13 @@ def rollouts_figure(observation, runs):
     panels sampled rollouts, obstacle futures (only if `dc` sampled some) and plans."""
     plt = pyplot()
     state = observation["robot_pose"]
-    futures = runs["dc"][0].diagnostics.obstacle_samples if "dc" in runs else None
-    has_futures = futures is not None and futures.size > 0
+    futures = obstacle_futures(runs["dc"][0].diagnostics) if "dc" in runs else None
+    has_futures = futures is not None
     fig, axes = plt.subplots(1, 3 if has_futures else 2, figsize=(15 if has_futures else 10, 5))
     clustered = next((runs[c][0] for c in ("dc", "clustered") if c in runs), None)
     shown = clustered or next(iter(runs.values()))[0]
     d = shown.diagnostics
-    rgb = cluster_rgb(d.labels, len(d.states))
+    rgb = cluster_rgb(cluster_labels(d), len(d.states))
     for ax in axes:
         draw_world(ax, observation, robot_label="robot at the planned step")
         _zoom(ax, state, observation["goal"])

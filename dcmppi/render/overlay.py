@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dcmppi.control import Diagnostics
+from dcmppi.control import ClusteredDiagnostics, Diagnostics
 from dcmppi.render.video import add_polyline
 
 # Tableau-like cluster colours; noise and unclustered samples are grey.
@@ -30,6 +30,18 @@ GREY = np.array([0.45, 0.45, 0.45])
 PLAN_RGBA = (1.0, 0.85, 0.0, 1.0)
 TRAIL_RGBA = (0.85, 0.1, 0.85, 0.9)
 FUTURE_RGBA = (0.95, 0.55, 0.1, 0.25)
+
+
+def cluster_labels(d: Diagnostics) -> np.ndarray | None:
+    """(K,) DBSCAN labels of a clustering planner's step (clustered, dc); None otherwise."""
+    return d.labels if isinstance(d, ClusteredDiagnostics) else None
+
+
+def obstacle_futures(d: Diagnostics) -> np.ndarray | None:
+    """(L', P, N + 1, 2) the step's sampled obstacle futures (dc's prior and ekf predictors),
+    or None where the predictor samples none."""
+    futures = None if d.prediction is None else d.prediction.futures
+    return futures if futures is not None and len(futures) else None
 
 
 def cluster_rgb(labels: np.ndarray | None, K: int) -> np.ndarray:
@@ -71,8 +83,9 @@ class Overlay:
         if d.states is not None:
             self._rollouts(scene, d)
             self._plan(scene, d)
-        if d.obstacle_samples is not None and len(d.obstacle_samples):
-            self._futures(scene, d.obstacle_samples)
+        futures = obstacle_futures(d)
+        if futures is not None:
+            self._futures(scene, futures)
         if len(self.trail) > 1:
             trail = np.asarray(self.trail)
             stride = max(1, len(trail) // 200)
@@ -84,7 +97,7 @@ class Overlay:
         d = self._diagnostics()
         out = []
         if d.states is not None:
-            if d.labels is not None:
+            if cluster_labels(d) is not None:
                 out += [((*PALETTE[0], 1.0), "rollouts by cluster"),
                         ((*GREY, 1.0), "in no cluster")]  # fmt: skip
             else:
@@ -92,7 +105,7 @@ class Overlay:
             out.append((PLAN_RGBA, "plan"))
         if len(self.trail) > 1:
             out.append((TRAIL_RGBA, "trail"))
-        if d.obstacle_samples is not None and len(d.obstacle_samples):
+        if obstacle_futures(d) is not None:
             out.append(((*FUTURE_RGBA[:3], 1.0), "obstacle futures"))
         return out
 
@@ -102,10 +115,11 @@ class Overlay:
 
     def _rollouts(self, scene, d) -> None:
         K = len(d.states)
-        rgb = cluster_rgb(d.labels, K)
+        labels = cluster_labels(d)
+        rgb = cluster_rgb(labels, K)
         steps = self._steps(d.states.shape[1])
         for k in np.linspace(0, K - 1, min(K, self.rollouts)).round().astype(int):
-            chosen = d.labels is not None and d.chosen >= 0 and d.labels[k] == d.chosen
+            chosen = labels is not None and d.chosen >= 0 and labels[k] == d.chosen
             rgba = (*rgb[k], 0.9 if chosen else 0.45)
             add_polyline(scene, d.states[k, steps, :2], rgba, 1.5, 0.06, line=True)
 

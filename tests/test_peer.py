@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from dcmppi.bench import peer, timing
+from dcmppi.control import make_controller
 from dcmppi.control.agents import make_agent
-from dcmppi.control.controllers import make_controller
 from dcmppi.control.costs import OccupancyGrid
 
 

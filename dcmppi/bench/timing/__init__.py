@@ -1,0 +1,29 @@
+"""`dcmppi timing`: median controller time per control step on fixed problems.
+
+Problems (deterministic, built in `worlds`, the defaults K = 500, N = 50):
+- forest: a synthetic forest of clustered overlapping cylinders over 75 x 50 m; `mppi`,
+  `clustered` and `tube` drive the analytic Dubins model across it.
+- forest+push (tube): the same, but after every step the real state is pushed along and across
+  its heading and turned by a fixed seeded offset sequence (`push`, zero mean), so Tube-MPPI's
+  nominal state differs from the real one: every step rolls out both (2K rollouts), and with
+  reset_threshold = 0 the nominal is kept whenever the push set the real state back (about 2
+  steps in 3) and the LQR feedback runs too: Tube-MPPI's most expensive step. Without the push
+  the nominal equals the real state after every reset, so one batch of K rollouts suffices and
+  the feedback is zero.
+- crowd: 100 moving cylinders as in the crowd task (radius 1 m, speeds U(0.5, 1.5) m/s,
+  turn rates U(-0.5, 0.5) rad/s, reflecting off the boundary); `dc` with P = 25 (and the others
+  for reference).
+BLAS and OpenMP pools are limited to one thread; the figures are for one core. The cases of a
+problem run interleaved in blocks of consecutive steps, so load changes on a shared machine hit
+them alike.
+
+Modules: `worlds` (the problems), `cases` (the table's rows and the variants), `loop` (a timed
+closed loop, interleaved timing), `profile` (`--profile`, through the controllers' timer hook),
+`fingerprint` (`--fingerprint`), `cli` (the options and the table). Only the entry points (`main`,
+`python -m dcmppi.bench.timing`) tune malloc for the process.
+"""
+
+from .cli import main
+from .worlds import forest, push, pushed
+
+__all__ = ["main", "forest", "push", "pushed"]

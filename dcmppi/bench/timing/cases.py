@@ -1,0 +1,98 @@
+"""The rows of `dcmppi timing`, and the cases of `--fingerprint` and `--profile`."""
+
+import dataclasses
+
+
+@dataclasses.dataclass(frozen=True)
+class Case:
+    """One timing row: a controller with parameters on a problem (loop.PROBLEMS), its reference
+    row (ratios are to its median) and its target (ms, or a ratio to the reference)."""
+
+    label: str
+    controller: str
+    problem: str
+    params: dict = dataclasses.field(default_factory=dict)
+    reference: str = "mppi"
+    target_ms: float | None = None
+    target_ratio: float | None = None
+
+
+TV, MIXED = {"perturbation": "time_varying"}, {"perturbation": "mixed"}
+CASES = (
+    Case("mppi", "mppi", "forest", target_ms=0.2),
+    Case("mppi tv", "mppi", "forest", TV, target_ms=0.3),
+    Case("mppi mixed", "mppi", "forest", MIXED),
+    Case("clustered", "clustered", "forest", target_ratio=1.2),
+    Case("tube", "tube", "forest", target_ratio=2.5),
+    Case("tube", "tube", "forest+push", target_ratio=2.5),
+    # agents: the same problem and perturbation kind as their dubins reference row
+    Case(
+        "mppi unicycle",
+        "mppi",
+        "forest",
+        {"agent": "unicycle", "perturbation": "constant"},
+        target_ratio=1.5,
+    ),
+    Case(
+        "mppi holonomic",
+        "mppi",
+        "forest",
+        {"agent": "holonomic", "perturbation": "constant"},
+        target_ratio=1.5,
+    ),
+    Case(
+        "mppi unicycle tv",
+        "mppi",
+        "forest",
+        {"agent": "unicycle", **TV},
+        "mppi tv",
+        target_ratio=1.5,
+    ),
+    Case(
+        "mppi holonomic mixed",
+        "mppi",
+        "forest",
+        {"agent": "holonomic", **MIXED},
+        "mppi mixed",
+        target_ratio=1.5,
+    ),
+    Case("mppi", "mppi", "crowd"),
+    Case("clustered", "clustered", "crowd"),
+    Case("dc", "dc", "crowd", target_ms=2.0),
+    Case(
+        "dc holonomic",
+        "dc",
+        "crowd",
+        {"agent": "holonomic", **MIXED, "Sigma": [1.0, 1.0, 0.1]},
+        target_ms=2.0,
+    ),
+)
+
+# `--fingerprint`: every row of the table and the variants that take other code paths
+FINGERPRINT_CASES = CASES + (
+    Case("dc ekf", "dc", "crowd", {"prediction": "ekf"}),
+    Case("dc tv", "dc", "crowd", TV),
+    Case("dc unicycle", "dc", "crowd", {"agent": "unicycle"}),
+    Case("clustered unicycle", "clustered", "forest", {"agent": "unicycle"}),
+    Case("clustered holonomic", "clustered", "forest", {"agent": "holonomic"}),
+    Case("clustered tv", "clustered", "forest", TV),
+    Case("clustered mixed", "clustered", "forest", MIXED),
+    Case("tube unicycle", "tube", "forest+push", {"agent": "unicycle"}),
+    Case("tube holonomic", "tube", "forest+push", {"agent": "holonomic"}),
+    Case("mppi unicycle mixed", "mppi", "forest", {"agent": "unicycle", **MIXED}),
+    Case("mppi holonomic tv", "mppi", "forest", {"agent": "holonomic", **TV}),
+)
+
+# `--profile`
+PROFILE_CASES = (
+    Case("mppi", "mppi", "forest"),
+    Case("mppi tv", "mppi", "forest", TV),  # the peer's problem: nu x N x K normals per step
+    Case("clustered", "clustered", "forest"),
+    Case("dc", "dc", "crowd"),
+    # the agents on mppi's problem and perturbation kind: their rollouts beside dubins'
+    Case("mppi unicycle", "mppi", "forest", {"agent": "unicycle", "perturbation": "constant"}),
+    Case("mppi holonomic", "mppi", "forest", {"agent": "holonomic", "perturbation": "constant"}),
+    # the holonomic robot's default (mixed) beside the car's: 3 x the normals per step
+    Case("mppi mixed", "mppi", "forest", MIXED),
+    Case("mppi holonomic mixed", "mppi", "forest", {"agent": "holonomic", **MIXED}),
+)

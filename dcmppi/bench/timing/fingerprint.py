@@ -1,0 +1,39 @@
+"""`dcmppi timing --fingerprint`: the sha1 of every closed loop's actions.
+
+A change that keeps every plan bit-identical prints the same hashes (docs/performance.md).
+"""
+
+import hashlib
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from .loop import ClosedLoop
+
+
+def fingerprint(cases, steps):
+    """Rows {case, problem, params, sha1}: the sha1 of each case's actions (steps, nu) as float64
+    bytes over `steps` closed-loop steps."""
+    rows = []
+    with threadpool_limits(1):
+        for case in cases:
+            loop = ClosedLoop(case.controller, case.problem, steps, **case.params)
+            actions = [loop.step() for _ in range(steps)]
+            digest = hashlib.sha1(np.ascontiguousarray(actions, dtype=np.float64).tobytes())
+            rows.append(
+                {
+                    "case": case.label,
+                    "problem": case.problem,
+                    "params": case.params,
+                    "sha1": digest.hexdigest(),
+                }
+            )
+    return rows
+
+
+def print_fingerprint(rows, steps):
+    """The rows as text, one hash per line."""
+    print(f"dcmppi timing --fingerprint: sha1 of the actions of {steps} closed-loop steps")
+    for r in rows:
+        params = ",".join(f"{k}={v}" for k, v in r["params"].items())
+        print(f"{r['sha1']}  {r['case']:<21} {r['problem']:<11} {params}")

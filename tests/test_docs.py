@@ -1,9 +1,11 @@
-"""The README's examples run as written: "Benchmark your own controller" (its files are written,
-its commands run) and "Your own agent"."""
+"""The README's examples run as written ("Benchmark your own controller": its files are written,
+its commands run; "Your own agent"; "Your own predictor"), CI runs the README's test command,
+and the links between README.md and docs/*.md reach existing files and headings."""
 
 import os
 import pathlib
 import re
+import shlex
 import subprocess
 import sys
 
@@ -73,3 +75,86 @@ def test_your_own_agent_section_runs():
             assert np.hypot(state[0] - 5.0, state[1] - 2.0) < 0.5, name
     finally:
         base._AGENTS.pop("point", None)
+
+
+def test_your_own_predictor_section_runs():
+    """The registered predictor changes the plan, and with it a robot passes an obstacle that
+    crosses its way, where the same planner with obstacles seen frozen drives into it."""
+    from dcmppi.control import predictors
+
+    ((lang, code),) = blocks(section("### Your own predictor"))
+    assert lang == "python" and code.count("\n") <= 40
+    namespace = {}
+    try:
+        exec(compile(code, "README.md", "exec"), namespace)
+        np, dcmppi = namespace["np"], namespace["dcmppi"]
+        u, moving = namespace["u"], namespace["moving"]
+        assert u.shape == (3,) and np.hypot(u[0], u[1]) <= 1.5 + 1e-9
+        frozen = dcmppi.make_controller("mppi", agent="holonomic", prediction="frozen", seed=0)
+        assert not np.allclose(frozen.act(np.zeros(3), np.array([8.0, 0.0]), None, moving, None), u)
+
+        def drive(**params):
+            """12 s toward the goal while an obstacle crosses the way at 1.2 m/s, timed to meet
+            the robot on the straight line: (smallest centre distance [m], final distance to
+            the goal [m])."""
+            ctrl = dcmppi.make_controller("mppi", agent="holonomic", seed=0, **params)
+            state, obstacle = np.zeros(3), np.array([4.0, 3.2, -np.pi / 2, 0.5])
+            closest = np.inf
+            for _ in range(120):
+                u = ctrl.act(state, np.array([8.0, 0.0]), None, obstacle[None], None)
+                state = ctrl.agent.step(state, u, 0.1)
+                obstacle[1] -= 1.2 * 0.1
+                closest = min(closest, np.hypot(*(state[:2] - obstacle[:2])))
+            return closest, np.hypot(state[0] - 8.0, state[1])
+
+        touching = 0.5 + 0.5  # robot radius + obstacle radius
+        closest, to_goal = drive(prediction="straight", speed=1.2)
+        assert closest > touching and to_goal < 1.0
+        assert drive(prediction="frozen")[0] < touching
+    finally:
+        predictors.base._PREDICTORS.pop("straight", None)
+
+
+def ci_test_command():
+    """The command .ci/run runs as its tests: its line `test_cmd="..."`."""
+    lines = (ROOT / ".ci" / "run").read_text().splitlines()
+    found = [line for line in lines if line.startswith("test_cmd=")]
+    assert len(found) == 1, f".ci/run must set test_cmd once; found {found}"
+    (command,) = shlex.split(found[0].partition("=")[2], comments=True)
+    return command
+
+
+def test_ci_runs_the_readme_test_command():
+    """The second line of the README's first code block is the test command CI runs."""
+    text = (ROOT / "README.md").read_text()
+    first_block = re.search(r"^```\w*\n(.*?)^```$", text, re.S | re.M).group(1)
+    lines = [line for line in first_block.splitlines() if line.strip()]
+    assert len(lines) == 2 and lines[1] == ci_test_command() == "pytest -q"
+
+
+def github_anchor(heading):
+    """The fragment GitHub gives a Markdown heading: lower case, punctuation but - and _
+    dropped, spaces as hyphens."""
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+def headings(path):
+    """Anchors of the headings of a Markdown file, outside fenced code."""
+    prose = re.sub(r"^```.*?^```$", "", path.read_text(), flags=re.S | re.M)
+    return {github_anchor(m) for m in re.findall(r"^#+ (.+)$", prose, re.M)}
+
+
+def test_doc_links_reach_files_and_headings():
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    checked, broken = 0, []
+    for page in pages:
+        prose = re.sub(r"^```.*?^```$", "", page.read_text(), flags=re.S | re.M)
+        for target in re.findall(r"\]\(([^)\s]+)\)", prose):
+            if re.match(r"[a-z]+:", target):
+                continue  # an external address
+            path, _, anchor = target.partition("#")
+            linked = (page.parent / path).resolve() if path else page
+            checked += 1
+            if not linked.exists() or (anchor and anchor not in headings(linked)):
+                broken.append(f"{page.relative_to(ROOT)}: {target}")
+    assert checked >= 10 and not broken, broken

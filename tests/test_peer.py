@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from dcmppi.bench import peer, timing
+from dcmppi.bench.timing.worlds import world
 from dcmppi.control import make_controller
 from dcmppi.control.agents import make_agent
 from dcmppi.control.costs import OccupancyGrid
@@ -29,17 +30,20 @@ def _peer():
     return torch
 
 
-STATIC, _, GOAL = timing.forest()
-FIRST = STATIC[np.argmin(STATIC[:, 0])]
-START = np.array([FIRST[0] - FIRST[2] - 2.0, FIRST[1], 0.0])  # 2 m before it, heading at it
+FOREST = world("forest")  # timing's forest
+STATIC, GOAL, BOUNDS = FOREST.static, FOREST.goal, FOREST.map_bounds
+SOLID = STATIC[STATIC[:, 2] > 0]
+NEAR = SOLID[np.argmin(np.hypot(*(SOLID[:, :2] - FOREST.start[:2]).T))]  # nearest the start
+AHEAD = (NEAR[:2] - FOREST.start[:2]) / np.hypot(*(NEAR[:2] - FOREST.start[:2]))
+START = np.array([*(NEAR[:2] - (NEAR[2] + 2.0) * AHEAD), np.arctan2(*AHEAD[::-1])])  # 2 m before
 
 
 def _problem(**params):
     """A small controller after one step from START and the peer's problem: ctrl.evaluate then
-    sees the same start, goal and static map."""
+    sees the same start, goal, static map and bounds."""
     ctrl = make_controller("mppi", seed=0, perturbation="time_varying", **params)
-    ctrl.act(START, GOAL, STATIC)
-    return ctrl, peer.PeerProblem(ctrl, STATIC, GOAL)
+    ctrl.act(START, GOAL, STATIC, bounds=BOUNDS)
+    return ctrl, peer.PeerProblem(ctrl, STATIC, GOAL, BOUNDS)
 
 
 def test_dynamics_equal_our_agents_step():
@@ -62,7 +66,7 @@ def test_cost_of_rollouts_equals_evaluate():
     u = np.clip(np.linspace(-1, 1, 64) + rng.normal(0, 0.3, (ctrl.N, 1, 64)), -1, 1)
     states, J = ctrl.evaluate(START, u)
     theirs = problem.cost(START, torch.from_numpy(u.transpose(2, 0, 1))).numpy()
-    hits = OccupancyGrid(STATIC, ctrl.robot_radius, ctrl.resolution).count(*states[:2])
+    hits = OccupancyGrid(STATIC, ctrl.robot_radius, ctrl.resolution, BOUNDS).count(*states[:2])
     assert 0 < np.count_nonzero(hits) < len(hits)  # the occupancy lookup matters
     assert len(np.unique(hits)) > 3
     np.testing.assert_allclose(theirs, J, rtol=1e-6)
@@ -89,3 +93,14 @@ def test_pytorch_mppi_plans_as_ours_from_the_same_perturbations():
     assert np.abs(plan - U0).max() > 0.05  # the update moved the plan
     assert np.any(np.abs(U0 + eps[:, :, 0]) > 1)  # some sampled controls were clipped
     np.testing.assert_allclose(mppi.U.numpy(), plan, rtol=0, atol=1e-6)
+
+
+def test_passing_names_the_first_cylinder_on_the_way_not_a_padding_row():
+    static = np.array([[3.0, 0.0, 0.0], [5.0, 0.0, 1.0]])  # a radius-0 row on the line first
+    x = np.linspace(0, 10, 11)
+    path = np.column_stack([x, 0.4 * x])  # 1.2 m left of the padding row, 2 m of the cylinder
+    phrase = peer.passing(static, np.zeros(3), np.array([10.0, 0.0]), 0.5, [path, -path * [-1, 1]])
+    assert (
+        phrase
+        == "they pass the first obstacle on the way on its left (+2.000 m) and right (-2.000 m)"
+    )

@@ -4,15 +4,16 @@ Needs the optional extra `peer` (`pip install torch==2.13.0 pytorch-mppi`, or
 `pip install "dcmppi[peer]"`); torch and pytorch_mppi are imported only when it runs.
 
 The problem is built from our controller (`make_controller("mppi", seed=0,
-perturbation="time_varying")`, the defaults) and its closed loop on timing's forest, so both
-planners see the same numbers. Identical in the two:
+perturbation="time_varying")`, the defaults) and its closed loop on timing's forest (the forest
+task's generator, seed 0), so both planners see the same numbers. Identical in the two:
 - dynamics: the exact Dubins arc per control period, a = omega dt / 2, x += v dt sinc(a)
   cos(theta + a), y += v dt sinc(a) sin(theta + a), theta += 2 a, v = 1 m/s, dt = 0.1 s
   (`PeerProblem.dynamics`, equal to our agent's step to 1e-9, tests/test_peer.py);
 - cost of a state: distance to the goal + alpha (1000) x the occupancy of the static cost map,
   looked up in our OccupancyGrid's boolean grid (robot radius 0.5 m, 0.1 m cells, same cell
   indexing: index = int(clip((x - origin) / resolution, 0, last cell))), not a disc test, so
-  both pay the same conservative rasterised map;
+  both pay the same conservative rasterised map; with the map's bounds (as timing passes them)
+  its outer ring is occupied, so a state whose centre leaves the map costs alpha in both;
 - K = 500 samples, N = 50 steps, lambda = 1, Sigma = 0.1 (rad/s)^2 on omega (pytorch_mppi's
   noise_sigma is the covariance), |omega| <= 1 rad/s (u_min, u_max);
 - time-varying perturbations: an independent N(0, Sigma) draw per sample and step;
@@ -76,16 +77,17 @@ class PeerProblem:
 
     Args:
       ctrl: our controller (dubins agent): v, dt, alpha, robot_radius, resolution come from it.
-      static: (M, 3) static cylinders x, y, radius; goal: (2,).
+      static: (M, 3) static cylinders x, y, radius (radius-0 rows ignored); goal: (2,).
+      bounds: (4,) xmin, ymin, xmax, ymax of the map, or None (as our act's `bounds`).
       dtype: torch dtype of the states and costs.
     """
 
-    def __init__(self, ctrl, static, goal, dtype=None):
+    def __init__(self, ctrl, static, goal, bounds=None, dtype=None):
         torch, _ = require()
         self.torch = torch
         self.dtype = torch.float64 if dtype is None else dtype
         self.v, self.dt, self.alpha = ctrl.agent.v, ctrl.dt, ctrl.alpha
-        grid = OccupancyGrid(static, ctrl.robot_radius, ctrl.resolution)
+        grid = OccupancyGrid(static, ctrl.robot_radius, ctrl.resolution, bounds)
         # alpha x occupancy of every cell, flat; a state's cell index is int(clip((p - origin)
         # / resolution, 0, last cell)) along x and y, as in our lookup
         self.penalty = torch.from_numpy(self.alpha * grid.grid.ravel()).to(self.dtype)
@@ -163,7 +165,7 @@ def make_peer(ctrl, problem):
 class PeerLoop:
     """pytorch_mppi driving our analytic model from a closed loop's start (same interface).
 
-    ours: a timing.ClosedLoop of our controller, before its first step.
+    ours: a timing.loop.ClosedLoop of our controller, before its first step.
     """
 
     def __init__(self, ours, seed=0):
@@ -171,7 +173,7 @@ class PeerLoop:
         self.torch = torch
         torch.manual_seed(seed)
         self.agent, self.dt = ours.ctrl.agent, ours.ctrl.dt
-        self.problem = PeerProblem(ours.ctrl, ours.static, ours.goal)
+        self.problem = PeerProblem(ours.ctrl, ours.static, ours.goal, ours.bounds)
         self.mppi = make_peer(ours.ctrl, self.problem)
         self.state = np.array(ours.state, dtype=float)
         self.times = []
@@ -190,7 +192,7 @@ class PeerLoop:
 
 
 def compare(ours, steps, block=1):
-    """Time our closed loop `ours` (timing.ClosedLoop, not yet stepped) beside pytorch_mppi's.
+    """Time our closed loop `ours` (timing.loop.ClosedLoop, not yet stepped) beside pytorch_mppi's.
 
     Both run `steps` control steps, interleaved in blocks of `block` consecutive steps each (as
     timing's table: a block's steps find their data in the caches as a controller's consecutive
@@ -256,9 +258,10 @@ def compare(ours, steps, block=1):
 def passing(static, start, goal, robot_radius, paths):
     """Which side of the first obstacle on the straight line start-goal each path passes.
 
-    static: (M, 3) cylinders; start: (3,); goal: (2,); paths: positions (T, 2) per controller,
-    ours first. Returns a phrase.
+    static: (M, 3) cylinders (radius-0 rows ignored); start: (3,); goal: (2,); paths: positions
+    (T, 2) per controller, ours first. Returns a phrase.
     """
+    static = static[static[:, 2] > 0]
     line = goal - start[:2]
     along = line / np.hypot(*line)
     left = np.array([-along[1], along[0]])

@@ -1,18 +1,18 @@
 """`dcmppi timing`: median controller time per control step on fixed problems.
 
-Problems (deterministic, built in `worlds`, the defaults K = 500, N = 50):
-- forest: a synthetic forest of clustered overlapping cylinders over 75 x 50 m; `mppi`,
-  `clustered` and `tube` drive the analytic Dubins model across it.
+Problems (deterministic, the tasks' worlds drawn by their generators with seed 0 (`worlds`), the
+defaults K = 500, N = 50); every act() sees what the task would observe, map bounds included:
+- forest: the forest task's world (clusters of overlapping cylinders over 75 x 50 m, start and
+  goal >= 30 m apart); `mppi`, `clustered` and `tube` drive the analytic model across it.
 - forest+push (tube): the same, but after every step the real state is pushed along and across
   its heading and turned by a fixed seeded offset sequence (`push`, zero mean), so Tube-MPPI's
   nominal state differs from the real one: every step rolls out both (2K rollouts), and with
-  reset_threshold = 0 the nominal is kept whenever the push set the real state back (about 2
-  steps in 3) and the LQR feedback runs too: Tube-MPPI's most expensive step. Without the push
+  reset_threshold = 0 the nominal is kept whenever the push set the real state back (most
+  steps) and the LQR feedback runs too: Tube-MPPI's most expensive step. Without the push
   the nominal equals the real state after every reset, so one batch of K rollouts suffices and
   the feedback is zero.
-- crowd: 100 moving cylinders as in the crowd task (radius 1 m, speeds U(0.5, 1.5) m/s,
-  turn rates U(-0.5, 0.5) rad/s, reflecting off the boundary); `dc` with P = 25 (and the others
-  for reference).
+- crowd: the crowd task's world, 100 moving cylinders moving as in the task (exact Dubins arcs,
+  reflecting off the walls); `dc` with P = 25 (and the others for reference).
 BLAS and OpenMP pools are limited to one thread; the figures are for one core. The cases of a
 problem run interleaved in blocks of consecutive steps, so load changes on a shared machine hit
 them alike.

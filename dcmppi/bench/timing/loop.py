@@ -6,7 +6,7 @@ import numpy as np
 
 from dcmppi.control import make_controller
 
-from .worlds import crowd, forest, move_crowd, obstacle_model, push, pushed
+from .worlds import moving_crowd, observed, push, pushed, world
 
 PROBLEMS = ("forest", "forest+push", "crowd")
 SKIP = 3  # first steps left out of the figures: they build the cost map and load the kernels
@@ -15,6 +15,8 @@ BLOCK = 10  # consecutive steps of one case before the next case's
 
 class ClosedLoop:
     """One controller driving the analytic model on a timing problem, one timed step at a time.
+
+    Its act() sees what the task would observe (static, moving, obstacle model, map bounds).
 
     Args:
       name: controller name; params: its parameters (seed = 0).
@@ -29,14 +31,11 @@ class ClosedLoop:
             params = {"reset_threshold": 0.0, **params}
         self.ctrl = make_controller(name, seed=0, **params)
         self.offsets = push(steps) if problem == "forest+push" else None
-        if problem in ("forest", "forest+push"):
-            self.static, self.state, self.goal = forest()
-            self.moving = self.model = None
-        else:
-            self.static, self.state = None, np.array([2.0, 25.0, 0.0])
-            self.goal = np.array([73.0, 25.0])
-            self.moving, self.speed, self.turn = crowd()
-            self.model = obstacle_model()
+        w = world(problem.split("+")[0])
+        self.state, self.goal = np.array(w.start), w.goal
+        self.static, self.bounds = w.static, w.map_bounds
+        self.model, self.moving, self.radius = w.obstacle_model, w.moving, w.moving[:, 3]
+        self.crowd = moving_crowd(w, self.ctrl.dt) if len(w.moving) else None
         self.times = []
 
     def step(self):
@@ -44,13 +43,14 @@ class ClosedLoop:
         action (nu,)."""
         ctrl = self.ctrl
         t0 = time.perf_counter()
-        u = ctrl.act(self.state, self.goal, self.static, self.moving, self.model)
+        u = ctrl.act(self.state, self.goal, self.static, self.moving, self.model, self.bounds)
         self.times.append(time.perf_counter() - t0)
         self.state = ctrl.agent.step(self.state, u, ctrl.dt)
         if self.offsets is not None:
             self.state = pushed(self.state, self.offsets[len(self.times) - 1])
-        if self.moving is not None:
-            self.moving = move_crowd(self.moving, self.speed, self.turn, ctrl.dt)
+        if self.crowd is not None:
+            self.crowd.advance(1)
+            self.moving = observed(self.crowd, self.radius)
         return u
 
     def summary(self):

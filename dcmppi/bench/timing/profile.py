@@ -12,8 +12,9 @@ from dcmppi.control.timer import StepTimer
 
 from .loop import SKIP, ClosedLoop
 
-# The hook's labels in print order; NESTED: {label: the label whose time includes it}.
+# The hook's labels in the order a step runs them; NESTED: {label: the label that includes it}.
 LABELS = (
+    "prediction",
     "sample",
     "controls",
     "evaluate",
@@ -24,7 +25,6 @@ LABELS = (
     "features",
     "DBSCAN",
     "cluster updates",
-    "prediction",
 )
 NESTED = {"rollout": "evaluate", "objective": "evaluate"}
 

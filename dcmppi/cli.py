@@ -12,7 +12,6 @@ import os
 import sys
 
 from dcmppi.control._malloc import tune_malloc
-from dcmppi.control.defaults import NOISE_PROFILES
 from dcmppi.render import CAMERAS
 
 # names that other flags set for every episode (a parameter would silently override them)
@@ -55,9 +54,9 @@ def cmd_tasks(args) -> int:
 
 def cmd_controllers(args) -> int:
     from dcmppi.bench.plugins import ENTRY_POINT_GROUP, entry_points
-    from dcmppi.control import controller_names
+    from dcmppi.control import controller_class, controller_names
     from dcmppi.control.agents import agent_class, agent_names
-    from dcmppi.control.controllers import controller_class
+    from dcmppi.control.predictors import predictor_class, predictor_names
 
     print("controllers (--controller NAME, or package.module:ClassName for your own class):")
     for name in controller_names():
@@ -69,6 +68,9 @@ def cmd_controllers(args) -> int:
     print("agents (--task-param agent=NAME):")
     for name in agent_names():
         print(f"  {name:12s} {_summary(agent_class(name))}")
+    print("predictors (--param prediction=NAME, or package.module:ClassName for your own):")
+    for name in predictor_names():
+        print(f"  {name:12s} {_summary(predictor_class(name))}")
     return 0
 
 
@@ -279,13 +281,13 @@ def _choices() -> dict[str, str]:
     """The names --help lists: tasks, controllers (built-in and installed), agents, noise
     profiles, experiments."""
     from dcmppi.bench.experiments import experiment_names
-    from dcmppi.bench.plugins import controller_names
+    from dcmppi.bench.plugins import available_controllers
     from dcmppi.control.agents import agent_names
-    from dcmppi.tasks import TASKS
+    from dcmppi.tasks import NOISE_PROFILES, TASKS
 
     return {
         "tasks": ", ".join(TASKS),
-        "controllers": ", ".join(controller_names()) + ", or package.module:ClassName",
+        "controllers": ", ".join(available_controllers()) + ", or package.module:ClassName",
         "agents": ", ".join(agent_names()),
         "noises": ", ".join(NOISE_PROFILES),
         "experiments": ", ".join(experiment_names()) + ", or the path of a .toml file",

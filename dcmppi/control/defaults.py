@@ -32,8 +32,3 @@ P = 25  # sampled futures per moving obstacle (paper)
 def omega_max(v: float = V, r_min: float = R_MIN) -> float:
     """Turn-rate bound v / R_min [rad/s]."""
     return v / r_min
-
-
-# Transitional copy: its home is dcmppi.tasks.NOISE_PROFILES. Delete once dcmppi/cli.py,
-# dcmppi/bench/experiments/ and tests/test_bench.py import it from there.
-NOISE_PROFILES = ("none", "control", "process")

@@ -182,7 +182,7 @@ class Experiment:
             extra = tuple(_own_row(exp, item) for item in rows if item not in exp._all_labels())
             exp = dataclasses.replace(exp, rows=exp.rows + extra, selected=rows)
         if noises is not None:
-            from dcmppi.control.defaults import NOISE_PROFILES
+            from dcmppi.tasks import NOISE_PROFILES
 
             bad = [n for n in noises if n not in NOISE_PROFILES]
             if bad or not noises:

@@ -24,7 +24,7 @@ from __future__ import annotations
 import json
 import numbers
 
-from dcmppi.control.defaults import NOISE_PROFILES
+from dcmppi.tasks import NOISE_PROFILES
 
 TOP_KEYS = {
     "name": str,

@@ -2,10 +2,14 @@
 
 One control step allocates a few MB of short-lived numpy temporaries of 0.1-1 MB each. glibc
 serves them by mmap or trims them from the heap top as soon as they are freed, so every step
-page-faults its memory in again: that made a K = 500, N = 50 rollout 5x slower (1.0 ms instead
-of 0.2 ms). Raising M_MMAP_THRESHOLD to 32 MB and M_TRIM_THRESHOLD to 64 MB keeps that memory
-in the process (at most ~64 MB retained). No-op on non-glibc platforms or when the environment
-variable DCMPPI_NO_MALLOC_TUNING is set.
+page-faults its memory in again (docs/performance.md has the cost). Raising M_MMAP_THRESHOLD
+to 32 MB and M_TRIM_THRESHOLD to 64 MB keeps that memory in the process (at most ~64 MB
+retained). No-op on non-glibc platforms or when the environment variable
+DCMPPI_NO_MALLOC_TUNING is set.
+
+It changes the whole process's memory settings, so only the entry points call it: the `dcmppi`
+command, the bench's pool and Ray workers and `dcmppi timing`; `import dcmppi` and
+`make_controller` leave a user's process alone.
 """
 
 import ctypes

@@ -1,9 +1,9 @@
 """DBSCAN with scikit-learn's exact labels, compiled with numba for the points of one step.
 
-`sklearn.cluster.DBSCAN(eps, min_samples).fit(X).labels_` takes about 2.5 ms for K = 500 points
-(input validation, a tree, Python lists of neighbourhoods), more than a whole MPPI step. This
-module returns the same labels for Clustered MPPI's few features (2 to 15) in a few tens of
-microseconds, following sklearn's conventions:
+`sklearn.cluster.DBSCAN(eps, min_samples).fit(X).labels_` spends longer than a whole MPPI step
+on input validation, a tree and Python lists of neighbourhoods (docs/performance.md). This module
+returns the same labels for Clustered MPPI's few features (2 to 15), following sklearn's
+conventions:
 - neighbours: points at squared Euclidean distance sum_f (x_f - y_f)^2 <= eps^2 (float64, summed
   over the features in order, as sklearn's KD-tree tests them; self included);
 - core points: at least `min_samples` neighbours;

@@ -8,10 +8,9 @@ that period with the speed v and turn rate omega held constant (a circular arc):
 
 with sinc(a) = sin(a) / a. Rollouts are time-major internally, (N + 1, 3, K): row i holds x, y and
 theta of all K rollouts at step i. The running sums over the horizon are two small numba loops
-(a numpy version needs a call per step, or per step and column set, which costs more than the
-arithmetic); the cosine and sine of the headings are numpy's, taken in float32 (ten times faster
-than float64 here). The positions stay float64 and are accurate to about 1e-6 m over a 5 s
-horizon, far below the 0.1 m cost-map resolution.
+(a numpy version needs a call per step, or per step and column set); the cosine and sine of the
+headings are numpy's, taken in float32 (docs/performance.md). The positions stay float64 and are
+accurate to about 1e-6 m over a 5 s horizon, far below the 0.1 m cost-map resolution.
 """
 
 import numba

@@ -64,8 +64,8 @@ def dubins_lqr_gain(c0, c1, b0, b1, b2, q_pos, q_theta, r):
 
     Same Riccati backward pass as tvlqr_gains with Q = Q_N = diag(q_pos, q_pos, q_theta) and
     R = r, written out for A_i = I + c0_i e_x e_theta^T + c1_i e_y e_theta^T, B_i = (b0_i, b1_i,
-    b2): the six entries of the symmetric P as scalars (one 3 x 3 numpy product costs more than
-    this whole step). Equal to tvlqr_gains(...)[0] up to rounding.
+    b2): the six entries of the symmetric P as scalars, no small numpy products. Equal to
+    tvlqr_gains(...)[0] up to rounding.
 
     Args:
       c0, c1, b0, b1: (N,) Jacobian entries; b2: dt; q_pos, q_theta, r: weights.

@@ -1,17 +1,14 @@
-"""Test configuration: offscreen rendering through EGL unless the caller chose a backend."""
+"""Test configuration: offscreen rendering through EGL unless the caller chose a backend, and
+tests/ on sys.path for the helper modules the test files in its subfolders import by name."""
 
 import os
+import pathlib
+import sys
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-
-def frames_of(path):
-    """Decode a video file: (ffmpeg metadata, list of (height, width, 3) uint8 frames)."""
-    import imageio_ffmpeg
-    import numpy as np
-
-    reader = imageio_ffmpeg.read_frames(str(path))
-    meta = next(reader)
-    width, height = meta["size"]
-    frames = [np.frombuffer(f, np.uint8).reshape(height, width, 3) for f in reader]
-    return meta, frames
+# user_controllers.py, a user's module named in strings ("user_controllers:Straight"): spawned
+# workers inherit this sys.path, Ray's get the folder from dcmppi.bench.plugins.import_roots.
+TESTS = str(pathlib.Path(__file__).resolve().parent)
+if TESTS not in sys.path:
+    sys.path.insert(0, TESTS)

@@ -1,7 +1,7 @@
 """Controllers of a user's own module, for tests of `package.module:ClassName` and entry points.
 
-Importable in the test process and its workers: tests/ is on sys.path (pytest's rootdir
-insertion), spawned workers inherit it, Ray's get it from `plugins.import_roots`.
+Importable from every test folder and the test process's workers: tests/conftest.py puts tests/
+on sys.path, spawned workers inherit it, Ray's get it from `plugins.import_roots`.
 """
 
 import numpy as np

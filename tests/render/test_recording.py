@@ -7,7 +7,7 @@ import sys
 import imageio.v3 as iio
 import numpy as np
 import pytest
-from conftest import frames_of
+from video_frames import frames_of
 
 from dcmppi import cli
 from dcmppi.bench import runner
@@ -172,9 +172,6 @@ def test_cli_output_into_a_closed_pipe_is_quiet(argv):
 def test_users_controller_without_diagnostics_records_a_video_but_no_figure(tmp_path):
     """A user's controller (reset/act only): the video draws its trail; the figure, which plots
     sampled rollouts, names what it needs."""
-    import sys
-
-    sys.path.insert(0, str(__import__("pathlib").Path(__file__).parent))
     user = EpisodeSpec("blocked", "user_controllers:Straight", task_params={"time_limit": 1.0})
     result = record_episode(Episode(user), tmp_path / "u.mp4", width=96, height=64, progress=False)
     assert result["steps"] == 10 and (tmp_path / "u.mp4").stat().st_size > 0

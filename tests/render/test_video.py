@@ -5,7 +5,7 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import frames_of
+from video_frames import frames_of
 
 from dcmppi import tasks
 from dcmppi.render import video

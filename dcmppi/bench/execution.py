@@ -154,8 +154,13 @@ def _ray(todo, workers, address) -> Iterable:
     started = not ray.is_initialized()
     if started:
         # Ray's workers do not share this process's sys.path: hand them the directories of
-        # package.module:ClassName controllers (on a cluster, the nodes must have them too)
-        roots = import_roots({spec.controller for _, spec in todo})
+        # package.module:ClassName controllers and predictors (on a cluster, the nodes must
+        # have them too)
+        names = {spec.controller for _, spec in todo}
+        for _, spec in todo:
+            prediction = {**spec.shared_params, **spec.controller_params}.get("prediction")
+            names |= {prediction} if isinstance(prediction, str) else set()
+        roots = import_roots(names)
         paths = roots + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
         env = {**_SINGLE_THREAD, **({"PYTHONPATH": os.pathsep.join(paths)} if roots else {})}
         kwargs = {"address": address} if address else {"num_cpus": workers}

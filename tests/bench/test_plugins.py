@@ -102,7 +102,8 @@ def test_entry_points_appear_by_name(monkeypatch, capsys):
         mppi=f"{MODULE}:Careful",  # a built-in name wins
         broken="no_such_module:C",
     )
-    assert plugins.available_controllers() == ["clustered", "dc", "mppi", "tube", "broken", "straight"]
+    names = ["clustered", "dc", "mppi", "tube", "broken", "straight"]
+    assert plugins.available_controllers() == names
     assert plugins.resolve_controller("straight") is user_controllers.Straight
     assert plugins.resolve_controller("mppi").__name__ == "MPPI"
     with pytest.raises(ValueError, match="'broken' .entry point 'no_such_module:C' of group"):

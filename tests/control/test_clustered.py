@@ -106,7 +106,9 @@ def recorded_two_valley_steps(task, controller, seeds, **task_params):
             episode.step()
             ctrl, d = episode.controller, episode.controller.diagnostics
             states = d.states.transpose(1, 2, 0)
-            colliding = d.J - goal_distance(states[:, 0], states[:, 1], ctrl.objective.goal) >= ctrl.alpha
+            colliding = (
+                d.J - goal_distance(states[:, 0], states[:, 1], ctrl.objective.goal) >= ctrl.alpha
+            )
             f = d.features[:, 0]
             order = np.argsort(f, kind="stable")
             runs, current = [], []

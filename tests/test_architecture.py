@@ -43,6 +43,7 @@ def _loaded_after(statement):
     return set(out.stdout.split())
 
 
+@pytest.mark.slow
 def test_control_imports_no_mujoco_tasks_bench_or_render():
     modules = sorted(_module_name(p) for p in (ROOT / "dcmppi" / "control").rglob("*.py"))
     loaded = _loaded_after("; ".join(f"import {m}" for m in modules))
@@ -54,6 +55,7 @@ def test_control_imports_no_mujoco_tasks_bench_or_render():
     assert not bad, f"dcmppi.control loaded {sorted(bad)}"
 
 
+@pytest.mark.slow
 def test_tasks_import_no_planner_scikit_learn_or_scipy():
     loaded = _loaded_after("import dcmppi.tasks")
     assert "dcmppi.tasks.navigation" in loaded  # the test saw the package itself

@@ -9,6 +9,8 @@ import shlex
 import subprocess
 import sys
 
+import pytest
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
@@ -28,6 +30,7 @@ def blocks(text):
     return re.findall(r"^```(\w+)\n(.*?)^```$", text, re.S | re.M)
 
 
+@pytest.mark.slow
 def test_benchmark_your_own_controller_section_runs(tmp_path):
     found = blocks(section("## Benchmark your own controller"))
     assert [lang for lang, _ in found] == ["python", "toml", "sh"]

@@ -79,6 +79,7 @@ def test_episode_is_reproducible_and_paired():
 USER_ROWS = ("mppi", "clustered", "user_controllers:Straight")
 
 
+@pytest.mark.slow
 def test_one_and_two_workers_give_identical_rows(tmp_path):
     exp = tiny(rows=USER_ROWS)
     one = run_into(tmp_path / "one.db", exp, workers=1)
@@ -88,6 +89,7 @@ def test_one_and_two_workers_give_identical_rows(tmp_path):
     assert deterministic(one) == deterministic(two)
 
 
+@pytest.mark.slow
 def test_ray_executor_matches_local(tmp_path):
     pytest.importorskip("ray")
     exp = tiny(episodes=1, rows=USER_ROWS, noises=("control",))
@@ -140,6 +142,7 @@ def _count(db):
         return 0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT])
 def test_bench_resumes_after_kill_or_ctrl_c_without_loss_or_duplicates(tmp_path, sig):
     db = tmp_path / "r.db"
@@ -164,6 +167,7 @@ def test_bench_resumes_after_kill_or_ctrl_c_without_loss_or_duplicates(tmp_path,
     assert all(r["status"] == "ok" for r in rows)
 
 
+@pytest.mark.slow
 def test_report_numbers_match_the_rows(tmp_path):
     exp = tiny(episodes=2, rows=("mppi", "clustered"), noises=("none",))
     rows = run_into(tmp_path / "r.db", exp, workers=1)
@@ -255,6 +259,7 @@ def test_episode_diagnostics_match_the_controllers_records(controller):
         assert result["tube_deviation_p95"] is None
 
 
+@pytest.mark.slow
 def test_bench_prints_a_summary_and_report_the_tables(tmp_path, capsys):
     db, out = tmp_path / "s.db", tmp_path / "report"
     argv = ["bench", "--experiment", "static", "--episodes", "1", "--noise", "none",

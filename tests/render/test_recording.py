@@ -26,6 +26,7 @@ def spec(controller, task="blocked", seed=0, **task_params):
                        controller_params=SMALL)  # fmt: skip
 
 
+@pytest.mark.slow
 def test_comparison_video_is_synchronised_and_tiles_differ(tmp_path):
     path = tmp_path / "cmp.mp4"
     world = {"distance": 8.0, "time_limit": 5.0}
@@ -40,6 +41,7 @@ def test_comparison_video_is_synchronised_and_tiles_differ(tmp_path):
     assert np.abs(left[0] - right[0]).mean() < np.abs(left - right).mean(axis=(1, 2, 3)).max()
 
 
+@pytest.mark.slow
 def test_record_episode_gif_has_one_frame_per_step(tmp_path):
     path = tmp_path / "one.gif"
     episode = spec("dc", task="crossing", time_limit=3.0)
@@ -133,6 +135,7 @@ def test_cli_video_path_under_a_file_is_one_line_exit_2(tmp_path, capsys):
     assert lines[0].startswith("dcmppi run: error: ")
 
 
+@pytest.mark.slow
 def test_cli_ctrl_c_during_a_video_prints_one_line_and_keeps_a_playable_video(
     tmp_path, capsys, monkeypatch
 ):
@@ -155,6 +158,7 @@ def test_cli_ctrl_c_during_a_video_prints_one_line_and_keeps_a_playable_video(
     assert len(frames) == 4 and meta["size"] == (1280, 720)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("argv", [["tasks"], ["--help"]])
 def test_cli_output_into_a_closed_pipe_is_quiet(argv):
     read, write = os.pipe()
@@ -169,6 +173,7 @@ def test_cli_output_into_a_closed_pipe_is_quiet(argv):
     assert out.returncode in (0, 141)  # argparse's --help swallows the error itself
 
 
+@pytest.mark.slow
 def test_users_controller_without_diagnostics_records_a_video_but_no_figure(tmp_path):
     """A user's controller (reset/act only): the video draws its trail; the figure, which plots
     sampled rollouts, names what it needs."""

@@ -10,6 +10,8 @@ from video_frames import frames_of
 from dcmppi import tasks
 from dcmppi.render import video
 
+pytestmark = pytest.mark.slow  # every test writes a video through ffmpeg
+
 
 @pytest.mark.parametrize("suffix, camera", [(".mp4", "top"), (".gif", "chase")])
 def test_short_video_has_every_frame_at_the_requested_size(tmp_path, suffix, camera):

@@ -120,7 +120,9 @@ def act(controller, observation) -> np.ndarray:
     """The controller's action for a task observation, as the task's action array (nu,).
 
     Calls act(state, goal, static, moving, obstacle_model) and passes the map's bounds as
-    `bounds` to controllers whose act takes it (dcmppi's do; a user's may not)."""
+    `bounds`, and the observed velocities of the moving obstacles as `moving_velocity` where the
+    observation has them, to controllers whose act takes that keyword (dcmppi's do; a user's
+    may not)."""
     args = (
         observation["robot_pose"],
         observation["goal"],
@@ -128,21 +130,22 @@ def act(controller, observation) -> np.ndarray:
         observation["moving_obstacles"],
         observation["obstacle_model"],
     )
-    if _takes_bounds(type(controller)):
-        u = controller.act(*args, bounds=observation["map_bounds"])
-    else:
-        u = controller.act(*args)
+    cls = type(controller)
+    extra = {"bounds": observation["map_bounds"]}
+    if "moving_velocity" in observation:
+        extra["moving_velocity"] = observation["moving_velocity"]
+    u = controller.act(*args, **{k: v for k, v in extra.items() if _takes(cls, k)})
     return np.asarray(u, dtype=np.float64).reshape(-1)
 
 
 @functools.cache
-def _takes_bounds(cls) -> bool:
-    """Whether cls.act accepts a `bounds` keyword."""
+def _takes(cls, name: str) -> bool:
+    """Whether cls.act accepts the keyword `name`."""
     try:
         parameters = inspect.signature(cls.act).parameters.values()
     except (TypeError, ValueError):
         return False
-    return any(p.name == "bounds" or p.kind == p.VAR_KEYWORD for p in parameters)
+    return any(p.name == name or p.kind == p.VAR_KEYWORD for p in parameters)
 
 
 _WARM: set[str] = set()  # controller configurations this process has warmed up
@@ -220,12 +223,129 @@ class Diagnosis:
         }
 
 
+PERSONAL_SPACE = 0.5  # [m] a pedestrian's surface this close to the robot's is in its space
+NEAR = 2.0  # [m] pedestrians this close (surface to surface) count in the speed loss
+
+
+def time_to_collision(position, velocity, radius) -> np.ndarray:
+    """Times [s] (L,) until two discs first touch at constant velocities: position, velocity
+    (L, 2) of each obstacle relative to the robot, radius (L,) the sums of the two radii.
+    0 where they touch already; inf where they are not on a collision course."""
+    p = np.asarray(position, dtype=np.float64)
+    v = np.asarray(velocity, dtype=np.float64)
+    a = np.einsum("ij,ij->i", v, v)
+    b = np.einsum("ij,ij->i", p, v)  # |p + v t|^2 = R^2: a t^2 + 2 b t + c = 0
+    c = np.einsum("ij,ij->i", p, p) - np.asarray(radius, dtype=np.float64) ** 2
+    disc = b * b - a * c
+    closing = (b < 0) & (disc >= 0) & (a > 0)
+    t = np.full(len(p), np.inf)
+    t[closing] = (-b[closing] - np.sqrt(disc[closing])) / a[closing]
+    t[c <= 0] = 0.0
+    return t
+
+
+def mean_jerk(velocity, dt: float) -> float | None:
+    """Mean norm [m/s^3] of the jerk of planar velocities (n, 2) sampled every dt [s] (second
+    differences / dt^2); None for fewer than three samples."""
+    v = np.asarray(velocity, dtype=np.float64)
+    if len(v) < 3:
+        return None
+    return float(np.linalg.norm(np.diff(v, n=2, axis=0), axis=1).mean() / dt**2)
+
+
+def spl(success: bool, start, goal, tolerance: float, path_length: float) -> float:
+    """Success weighted by path length: success x shortest / max(path_length, shortest), the
+    shortest path the straight line from start (2,) to within `tolerance` of goal (2,)."""
+    if not success:
+        return 0.0
+    shortest = max(0.0, float(np.hypot(*(np.asarray(goal) - np.asarray(start)))) - tolerance)
+    longest = max(path_length, shortest)
+    return 1.0 if longest == 0 else shortest / longest
+
+
+class FieldMetrics:
+    """The field's crowd-navigation metrics of an episode, from the simulation's truth read at
+    every control instant (the start and after every step): the robot's position and velocity
+    and the moving obstacles' positions, radii and velocities from `env.physics`, their
+    preferred speeds from `env.task.world` (`moving_pref_speed`; nan or absent: none, as
+    today's Dubins arcs).
+
+    Velocities come from `physics.moving_velocity()` (L, 2); a physics without it gets finite
+    differences of the positions over the control period (none at the start).
+    """
+
+    def __init__(self, env):
+        physics, world = env.physics, env.task.world
+        self.dt = env.control_timestep()
+        self.robot_radius = physics.robot_radius
+        n = len(world.moving)
+        self.pedestrians = n > 0
+        pref = np.asarray(getattr(world, "moving_pref_speed", np.full(n, np.nan)), np.float64)
+        self.pref_speed = pref if pref.shape == (n,) and np.isfinite(pref).all() else None
+        self.velocity: list[np.ndarray] = []  # the robot's planar velocity at each instant
+        self.instants = 0
+        self.min_gap = math.inf
+        self.personal = 0
+        self.min_ttc = math.inf
+        self.loss_sum = 0.0
+        self.loss_count = 0
+        self._xy = None
+        self.read(physics)
+
+    def read(self, physics) -> None:
+        """Record the state of `physics` now."""
+        robot_v = physics.robot_velocity()[:2]
+        self.velocity.append(robot_v)
+        if not self.pedestrians:
+            return
+        moving = physics.moving_obstacles()
+        xy, radius = moving[:, :2], moving[:, 3]
+        velocity = self._moving_velocity(physics, xy)
+        rel = xy - physics.robot_pose()[:2]
+        gap = np.hypot(rel[:, 0], rel[:, 1]) - radius - self.robot_radius
+        self.instants += 1
+        self.min_gap = min(self.min_gap, float(gap.min()))
+        self.personal += bool((gap < PERSONAL_SPACE).any())
+        if velocity is None:
+            return
+        ttc = time_to_collision(rel, velocity - robot_v, radius + self.robot_radius)
+        self.min_ttc = min(self.min_ttc, float(ttc.min()))
+        if self.pref_speed is not None:
+            near = gap < NEAR
+            speed = np.hypot(velocity[near, 0], velocity[near, 1])
+            self.loss_sum += float(np.sum(1.0 - speed / self.pref_speed[near]))
+            self.loss_count += int(near.sum())
+
+    def _moving_velocity(self, physics, xy) -> np.ndarray | None:
+        read = getattr(physics, "moving_velocity", None)
+        if read is not None:
+            return np.asarray(read(), dtype=np.float64)
+        previous, self._xy = self._xy, xy.copy()
+        return None if previous is None else (xy - previous) / self.dt
+
+    def result(self) -> dict:
+        """jerk_mean [m/s^3]; with moving obstacles (else None): min_ped_gap [m] (surface to
+        surface), personal_space_share (share of the instants with a pedestrian within
+        PERSONAL_SPACE), min_ttc [s] (inf: never on a collision course); ped_speed_loss: mean
+        over instants and pedestrians within NEAR of 1 - speed / preferred speed (None without
+        preferred speeds or with none near)."""
+        crowd = self.pedestrians and self.instants
+        return {
+            "jerk_mean": mean_jerk(self.velocity, self.dt),
+            "min_ped_gap": self.min_gap if crowd else None,
+            "personal_space_share": self.personal / self.instants if crowd else None,
+            "min_ttc": self.min_ttc if crowd else None,
+            "ped_speed_loss": self.loss_sum / self.loss_count if self.loss_count else None,
+        }
+
+
 class Episode:
     """A running episode of `spec`, advanced one control step at a time.
 
     Attributes: spec, env, controller, time_step (the latest dm_env TimeStep), path (list of
     (2,) robot positions, one per step and the start), ctrl_s and env_s (seconds per step
-    in the controller and in env.step), diagnosis (`Diagnosis` of every step).
+    in the controller and in env.step), diagnosis (`Diagnosis` of every step), metrics
+    (`FieldMetrics` of every step).
     """
 
     def __init__(self, spec: EpisodeSpec):
@@ -240,6 +360,7 @@ class Episode:
         self.ctrl_s: list[float] = []
         self.env_s: list[float] = []
         self.diagnosis = Diagnosis()
+        self.metrics = FieldMetrics(self.env)
 
     @property
     def done(self) -> bool:
@@ -257,26 +378,39 @@ class Episode:
         self.env_s.append(t2 - t1)
         self.diagnosis.read(self.controller, observation["robot_pose"])
         self.path.append(self.time_step.observation["robot_pose"][:2].copy())
+        self.metrics.read(self.env.physics)
 
     def result(self) -> dict:
         """The metrics of the finished episode (see `run_episode`)."""
         from dcmppi.tasks.barn import navigation_score
+        from dcmppi.tasks.navigation import GOAL_TOLERANCE
 
         path = np.asarray(self.path)
         outcome = self.env.task.outcome
         ctrl_ms = 1e3 * np.asarray(self.ctrl_s)
         elapsed = float(self.env.physics.data.time)
         optimal = getattr(self.env.task, "optimal_time", None)
+        length = float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
+        world = self.env.task.world
+        contact = self.env.physics.first_contact
+        kind = None
+        if outcome == "collision":
+            kind = "pedestrian" if contact["geom"].startswith("moving") else "static"
         return {
             "outcome": outcome,
+            "success": outcome == "goal",
             "collision": outcome == "collision",
+            "collision_kind": kind,
+            "timeout": outcome == "time_limit",
             "failure": outcome != "goal",
             "steps": len(self.ctrl_s),
             "time_to_goal": elapsed if outcome == "goal" else None,
             "nav_score": None
             if optimal is None
             else navigation_score(outcome == "goal", elapsed, optimal),
-            "path_length": float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1))),
+            "path_length": length,
+            "spl": spl(outcome == "goal", world.start[:2], world.goal, GOAL_TOLERANCE, length),
+            **self.metrics.result(),
             "min_clearance": float(self.env.task.min_clearance),
             "ctrl_ms_mean": float(ctrl_ms.mean()) if ctrl_ms.size else 0.0,
             "ctrl_ms_p95": float(np.percentile(ctrl_ms, 95)) if ctrl_ms.size else 0.0,
@@ -300,13 +434,17 @@ def run_episode(
       keep_path: also return the robot's positions, array (steps + 1, 2), under "path".
 
     Returns:
-      A dict: outcome ("goal" | "collision" | "left_map" | "time_limit"), collision, failure,
-      steps, time_to_goal [s] (None unless reached), nav_score (BARN's navigation score where
-      the task gives an `optimal_time`, i.e. a BARN world; else None), path_length [m],
-      min_clearance [m], ctrl_ms_mean, ctrl_ms_p95 (controller time per step, first-call
-      costs excluded by `warm_up`), env_ms_mean, the diagnostics ess_mean, clusters_mean,
-      fallback_share, tube_deviation_p95 [m] (None where the controller records none; see
-      `Diagnosis`), wall_s.
+      A dict: outcome ("goal" | "collision" | "left_map" | "time_limit"), success (the goal),
+      collision, collision_kind ("pedestrian": the first contact was a moving obstacle,
+      "static": a static one or a wall; None without collision), timeout (the time limit),
+      failure, steps, time_to_goal [s] (None unless reached), nav_score (BARN's navigation
+      score where the task gives an `optimal_time`, i.e. a BARN world; else None),
+      path_length [m], spl (success weighted by path length, see `spl`), the crowd metrics of
+      `FieldMetrics.result` (jerk_mean, min_ped_gap, personal_space_share, min_ttc,
+      ped_speed_loss), min_clearance [m], ctrl_ms_mean, ctrl_ms_p95 (controller time per
+      step, first-call costs excluded by `warm_up`), env_ms_mean, the diagnostics ess_mean,
+      clusters_mean, fallback_share, tube_deviation_p95 [m] (None where the controller records
+      none; see `Diagnosis`), wall_s.
     """
     episode = Episode(spec)
     if on_step is not None:

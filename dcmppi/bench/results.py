@@ -20,8 +20,19 @@ import sqlite3
 import time
 from pathlib import Path
 
-SCHEMA_VERSION = 3
-ADDED = {3: ("nav_score",)}  # columns that each schema version added to the one before
+SCHEMA_VERSION = 4
+FIELD_METRICS = (  # the crowd-navigation field's metrics (dcmppi.bench.runner.FieldMetrics)
+    "success",
+    "collision_kind",
+    "timeout",
+    "spl",
+    "jerk_mean",
+    "min_ped_gap",
+    "personal_space_share",
+    "min_ttc",
+    "ped_speed_loss",
+)
+ADDED = {3: ("nav_score",), 4: FIELD_METRICS}  # columns each schema version added to the last
 
 COLUMNS = (
     # key
@@ -36,12 +47,22 @@ COLUMNS = (
     ("error", "TEXT"),
     # metrics (NULL for errors)
     ("outcome", "TEXT"),
+    ("success", "INTEGER"),  # the goal reached
     ("collision", "INTEGER"),
+    ("collision_kind", "TEXT"),  # "pedestrian" | "static" (walls too); NULL without collision
+    ("timeout", "INTEGER"),  # the time limit reached
     ("failure", "INTEGER"),
     ("steps", "INTEGER"),
     ("time_to_goal", "REAL"),
     ("nav_score", "REAL"),  # BARN's navigation score (NULL outside BARN worlds)
     ("path_length", "REAL"),
+    ("spl", "REAL"),  # success weighted by path length
+    ("jerk_mean", "REAL"),  # the robot's mean jerk [m/s^3]
+    # pedestrians (moving obstacles); NULL in worlds without them
+    ("min_ped_gap", "REAL"),  # minimum surface distance [m]
+    ("personal_space_share", "REAL"),  # share of control instants with one within 0.5 m
+    ("min_ttc", "REAL"),  # minimum time-to-collision [s], Inf: never on a collision course
+    ("ped_speed_loss", "REAL"),  # mean 1 - speed / preferred speed within 2 m (reactive crowds)
     ("min_clearance", "REAL"),
     ("ctrl_ms_mean", "REAL"),
     ("ctrl_ms_p95", "REAL"),
@@ -137,12 +158,14 @@ class ResultsDB:
                 self.config = merged
 
     def _upgrade(self, schema: int) -> None:
-        """Add the (nullable) columns of the schema versions after `schema`."""
+        """Add the (nullable) columns of the schema versions after `schema` that are missing."""
         types = dict(COLUMNS)
+        present = {r[1] for r in self._db.execute("PRAGMA table_info(episodes)")}
         with self._db:
             for version in range(schema + 1, SCHEMA_VERSION + 1):
                 for name in ADDED[version]:
-                    self._db.execute(f"ALTER TABLE episodes ADD COLUMN {name} {types[name]}")
+                    if name not in present:
+                        self._db.execute(f"ALTER TABLE episodes ADD COLUMN {name} {types[name]}")
             self._db.execute(
                 "UPDATE meta SET value = ? WHERE key = 'schema'", (str(SCHEMA_VERSION),)
             )

@@ -10,7 +10,7 @@ from scipy import stats
 
 from dcmppi.bench.experiments import load_experiment
 from dcmppi.bench.report import table
-from dcmppi.bench.results import ConfigMismatch, ResultsDB
+from dcmppi.bench.results import SCHEMA_VERSION, ConfigMismatch, ResultsDB
 from dcmppi.bench.runner import EpisodeSpec
 from dcmppi.bench.stats import mcnemar_exact, paired, summarize, wilson
 
@@ -167,7 +167,8 @@ def test_a_database_of_another_schema_is_refused(tmp_path):
         c.execute("CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)")
         c.execute("INSERT INTO meta VALUES ('schema', '1'), ('config', '{}')")
     for config in (None, CONFIG):
-        with pytest.raises(ValueError, match="results schema '1', this dcmppi writes 3; use a new"):
+        message = f"results schema '1', this dcmppi writes {SCHEMA_VERSION}; use a new"
+        with pytest.raises(ValueError, match=message):
             ResultsDB(path, config)
 
 

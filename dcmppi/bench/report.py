@@ -1,6 +1,9 @@
 """Reports of a results database: paper-style tables, diagnostics, CSV, plots.
 
-Statistics: failure rates with 95 % Wilson score intervals; paired comparisons of each row
+Statistics: failure rates with 95 % Wilson score intervals; the crowd-navigation field's
+metrics (success, collisions with pedestrians or static obstacles, timeouts, time to goal, path
+length, SPL, jerk, gap to pedestrians, personal space, time-to-collision, pedestrians' speed
+loss) with 95 % intervals, '-' where a metric does not apply; paired comparisons of each row
 against the experiment's reference row on the same environments with McNemar's exact test on
 collisions; the paper's figures beside ours where the experiment gives them. Episodes with a
 navigation score (BARN worlds) get a table of their own: success rate (Wilson) and mean score
@@ -21,6 +24,7 @@ from pathlib import Path
 from dcmppi.bench.experiments import Experiment, Row
 from dcmppi.bench.results import COLUMN_NAMES, ResultsDB
 from dcmppi.bench.stats import (
+    field_metrics,
     fmt,
     noise_order,
     paired,
@@ -28,6 +32,37 @@ from dcmppi.bench.stats import (
     per_step,
     row_order,
     summarize,
+)
+
+METRICS_NOTE = (
+    "Per row over its finished episodes. Rates in % with 95 % Wilson intervals: success (the "
+    "goal), collisions whose first contact was a pedestrian (moving obstacle) or a static "
+    "obstacle or wall, timeouts (the time limit). Means with 95 % percentile-bootstrap intervals "
+    "(10,000 resamples): time to goal and path length over the successful episodes; SPL "
+    "(success x shortest / max(path, shortest), shortest = the straight line to within the goal "
+    "tolerance); mean jerk of the robot's planar velocity at the control rate; minimum "
+    "surface gap to a pedestrian; personal space, the share of the control instants with a "
+    "pedestrian's surface within 0.5 m of the robot's; pedestrians' speed loss, 1 - speed / "
+    "preferred speed of those within 2 m of the robot (reactive crowds only). Minimum "
+    "time-to-collision at constant velocities: the median over episodes with its bootstrap "
+    "interval (inf: never on a collision course). '-': not applicable (no pedestrians, or not "
+    "recorded by an older database)."
+)
+
+# The field's metrics table: (heading, field_metrics key, digits).
+METRICS_COLUMNS = (
+    ("Success %", "success", 1),
+    ("Pedestrian collisions %", "pedestrian", 1),
+    ("Static collisions %", "static", 1),
+    ("Timeouts %", "timeout", 1),
+    ("Time to goal [s]", "time_to_goal", 2),
+    ("Path [m]", "path_length", 2),
+    ("SPL", "spl", 3),
+    ("Jerk [m/s^3]", "jerk_mean", 1),
+    ("Min gap [m]", "min_ped_gap", 3),
+    ("Personal space %", "personal_space_share", 1),
+    ("Min TTC [s] (median)", "min_ttc", 2),
+    ("Speed loss %", "ped_speed_loss", 1),
 )
 
 SCORE_NOTE = (
@@ -121,6 +156,29 @@ def score_table(rows: list[dict], exp: Experiment) -> str:
             line += f" {d['diff']:+.3f} [{d['ci'][0]:+.3f}, {d['ci'][1]:+.3f}] |" if d else " |"
         lines.append(line)
     return "\n".join(lines)
+
+
+def metrics_table(rows: list[dict], exp: Experiment) -> str:
+    """The field's metrics per (noise, row) with 95 % intervals (see `field_metrics`); '-' for
+    the metrics that do not apply."""
+    stats = field_metrics(rows)
+    head = "| Noise | Row | Episodes | " + " | ".join(h for h, _, _ in METRICS_COLUMNS) + " |"
+    lines = [head, "|---|---|---:|" + "---|" * len(METRICS_COLUMNS)]
+    for noise, label in groups(rows, exp):
+        s = stats.get((noise, label))
+        if s is None:  # errors only
+            continue
+        cells = [_interval(s[key], digits) for _, key, digits in METRICS_COLUMNS]
+        lines.append(f"| {noise} | {label} | {s['episodes']} | {' | '.join(cells)} |")
+    return "\n".join(lines)
+
+
+def _interval(x, digits: int) -> str:
+    """'value [lo, hi]' of a (value, lo, hi, ...) tuple, '-' for None."""
+    if x is None:
+        return "-"
+    value, lo, hi = x[:3]
+    return f"{value:.{digits}f} [{lo:.{digits}f}, {hi:.{digits}f}]"
 
 
 def diagnostics_table(rows: list[dict], exp: Experiment) -> str:
@@ -236,8 +294,11 @@ def write_report(db_path: str | Path, out_dir: str | Path, plots: bool = True) -
         writer_csv.writerows(rows)
     warning = notice(rows, exp, writer)
     scores = score_table(rows, exp)
+    metrics = metrics_table(rows, exp)
     text = "\n\n".join(
-        part for part in (warning, table(rows, exp), scores, diagnostics_table(rows, exp)) if part
+        part
+        for part in (warning, table(rows, exp), metrics, scores, diagnostics_table(rows, exp))
+        if part
     )
     ref = f"the reference row `{exp.reference}`" if exp.reference else "no reference row"
     md = [
@@ -251,6 +312,12 @@ def write_report(db_path: str | Path, out_dir: str | Path, plots: bool = True) -
         f"Wilson score. McNemar: exact two-sided test on collisions against {ref}, over the "
         "environments both rows finished; 'a vs b discordant' counts environments where only "
         f"this row / only the reference collided. Paper figures in parentheses. {exp.paper_note}",
+        "",
+        "## Navigation metrics",
+        "",
+        metrics,
+        "",
+        METRICS_NOTE,
         "",
         *(["## Navigation score", "", scores, "", SCORE_NOTE, ""] if scores else []),
         "## Controller diagnostics",

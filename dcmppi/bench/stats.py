@@ -1,5 +1,6 @@
-"""Statistics of episode rows: failure rates with Wilson intervals, paired McNemar tests, and
-percentile-bootstrap intervals of mean navigation scores (BARN), alone and paired.
+"""Statistics of episode rows: failure rates with Wilson intervals, paired McNemar tests,
+percentile-bootstrap intervals of mean navigation scores (BARN), alone and paired, and the
+crowd-navigation field's metrics with their intervals.
 
 Shared by the report's tables and its plots.
 """
@@ -33,18 +34,28 @@ def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float]:
 def bootstrap_mean(values, resamples: int = BOOTSTRAP, seed: int = 0) -> tuple[float, float]:
     """95 % percentile-bootstrap interval of the mean of `values` (n,); the same values give the
     same interval (fixed seed). (nan, nan) for no values."""
+    return _bootstrap(values, np.mean, resamples, seed)
+
+
+def bootstrap_median(values, resamples: int = BOOTSTRAP, seed: int = 0) -> tuple[float, float]:
+    """95 % percentile-bootstrap interval of the median of `values` (n,), which may hold inf
+    (then so may the bounds); fixed seed as `bootstrap_mean`. (nan, nan) for no values."""
+    return _bootstrap(values, np.median, resamples, seed, method="inverted_cdf")
+
+
+def _bootstrap(values, statistic, resamples, seed, method="linear") -> tuple[float, float]:
     x = np.asarray(values, dtype=np.float64)
     if not x.size:
         return (math.nan, math.nan)
     rng = np.random.default_rng(seed)
     chunk = max(1, 2_000_000 // x.size)  # resamples per draw: bounded memory
-    means = np.concatenate(
+    stats = np.concatenate(
         [
-            x[rng.integers(0, x.size, (min(chunk, resamples - i), x.size))].mean(axis=1)
+            statistic(x[rng.integers(0, x.size, (min(chunk, resamples - i), x.size))], axis=1)
             for i in range(0, resamples, chunk)
         ]
     )
-    lo, hi = np.quantile(means, [0.025, 0.975])
+    lo, hi = np.quantile(stats, [0.025, 0.975], method=method)
     return float(lo), float(hi)
 
 
@@ -99,6 +110,61 @@ def summarize(rows: list[dict]) -> dict[tuple[str, str], dict]:
             "nav_score_ci": bootstrap_mean(scores) if scores else None,
         }
     return out
+
+
+# The field's metrics per episode that the report averages: column -> (rows it averages over,
+# the factor to the shown unit). "goal": episodes that reached the goal; "all": every episode.
+MEANS = {
+    "time_to_goal": ("goal", 1.0),
+    "path_length": ("goal", 1.0),
+    "spl": ("all", 1.0),
+    "jerk_mean": ("all", 1.0),
+    "min_ped_gap": ("all", 1.0),
+    "personal_space_share": ("all", 100.0),
+    "ped_speed_loss": ("all", 100.0),
+}
+
+
+def field_metrics(rows: list[dict]) -> dict[tuple[str, str], dict]:
+    """The field's metrics per (noise, row label) over its finished episodes: `episodes`; the
+    success, pedestrian-collision, static-collision and timeout rates in % with their Wilson
+    intervals, each (pct, lo, hi) (the collision kinds None when a collided episode lacks its
+    kind, an older database); per column of MEANS (value, lo, hi, n) the mean over episodes
+    with a value with its bootstrap interval, in the unit of MEANS; min_ttc: (median, lo, hi,
+    n) with the bootstrap interval of the median (inf allowed). None where no episode has a
+    value."""
+    groups = defaultdict(list)
+    for r in rows:
+        if r["status"] == "ok":
+            groups[(r["noise"], r["label"])].append(r)
+    out = {}
+    for key, ok in groups.items():
+        n = len(ok)
+        kinds = [r["collision_kind"] for r in ok if r["collision"]]
+        known = None not in kinds
+        s = {
+            "episodes": n,
+            "success": _rate(sum(r["outcome"] == "goal" for r in ok), n),
+            "pedestrian": _rate(kinds.count("pedestrian"), n) if known else None,
+            "static": _rate(kinds.count("static"), n) if known else None,
+            "timeout": _rate(sum(r["outcome"] == "time_limit" for r in ok), n),
+        }
+        for column, (over, scale) in MEANS.items():
+            xs = [
+                scale * r[column]
+                for r in ok
+                if r[column] is not None and (over == "all" or r["outcome"] == "goal")
+            ]
+            s[column] = (mean(xs), *bootstrap_mean(xs), len(xs)) if xs else None
+        ttc = [r["min_ttc"] for r in ok if r["min_ttc"] is not None]
+        s["min_ttc"] = (float(np.median(ttc)), *bootstrap_median(ttc), len(ttc)) if ttc else None
+        out[key] = s
+    return out
+
+
+def _rate(k: int, n: int) -> tuple[float, float, float]:
+    """k of n in % with its Wilson interval: (pct, lo, hi)."""
+    return (100 * k / n, *(100 * x for x in wilson(k, n)))
 
 
 def per_step(rows: list[dict], column: str) -> float | None:

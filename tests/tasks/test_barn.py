@@ -12,7 +12,7 @@ from dcmppi import tasks
 from dcmppi.bench.execution import run_experiment
 from dcmppi.bench.experiments import Experiment, ExperimentError, load_experiment
 from dcmppi.bench.report import score_table, write_report
-from dcmppi.bench.results import ResultsDB
+from dcmppi.bench.results import SCHEMA_VERSION, ResultsDB
 from dcmppi.bench.runner import EpisodeSpec, check_specs, make_env
 from dcmppi.bench.stats import bootstrap_mean, paired_scores, summarize
 
@@ -152,7 +152,9 @@ def test_one_barn_episode_end_to_end(tmp_path):
     assert row["nav_score"] == pytest.approx(optimal / max(row["time_to_goal"], 2 * optimal))
     assert 0.125 <= row["nav_score"] <= 0.5
     text = write_report(tmp_path / "barn.db", tmp_path / "report", plots=False)
-    line = next(r for r in text.splitlines() if r.startswith("| none | mppi | 1 | 100.0 [20.7"))
+    scores = score_table([row], exp)
+    assert scores in text  # the report's score table (its other tables start their rows alike)
+    (line,) = [r for r in scores.splitlines() if r.startswith("| none | mppi | 1 | 100.0 [20.7")]
     assert f"| {row['nav_score']:.3f} [{row['nav_score']:.3f}, {row['nav_score']:.3f}] |" in line
     assert "(80.5)" in line  # BiC-MPPI's published success rate beside ours
     assert "## Navigation score" in (tmp_path / "report" / "report.md").read_text()
@@ -237,4 +239,5 @@ def test_a_database_without_the_score_column_is_read_and_extended(tmp_path):
     assert [r["nav_score"] for r in db.rows()] == [None, 0.4]
     db.close()
     with sqlite3.connect(path) as c:
-        assert c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone() == ("3",)
+        (schema,) = c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone()
+    assert schema == str(SCHEMA_VERSION)  # upgraded to the current schema

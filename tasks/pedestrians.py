@@ -1,0 +1,259 @@
+"""Pedestrians that walk to goals and react to each other, the walls and (optionally) the robot.
+
+Each pedestrian wants to walk straight to its goal at its preferred speed (the desired velocity)
+and a behaviour turns that into its velocity for the next control period:
+
+    social_force   Helbing & Molnar's social force, dcmppi.control.social (the `social`
+                   predictor's own model)
+    orca, hrvo     navground's ORCA (RVO2's reciprocal velocity obstacles) and HRVO (which
+                   ignores walls: worlds with walls refuse it)
+    hl             navground's HL (Guzzi et al. 2013, a human-like heuristic)
+
+"constant" (BEHAVIORS' first) is today's Dubins arcs, worlds.DubinsObstacles, not this class.
+navground's behaviours get, each step, the other pedestrians within NEIGHBOR_RANGE (and the
+robot when visible) as neighbours, the walls as line obstacles and the desired velocity as their
+target; an omnidirectional kinematics caps their speed at MAX_SPEED_FACTOR x the preferred
+speed, as the social force does. ORCA uses CrowdNav's settings (time horizons 5 s, at most 10
+neighbours). navground computes in float32; positions integrate in float64 here.
+
+A pedestrian within its radius of its goal gets the next from next_goal at the start of the
+next control period: a new goal, or a respawn somewhere else (the density stays).
+"""
+
+import numpy as np
+
+from dcmppi.control import social
+from dcmppi.control.social import MAX_SPEED_FACTOR
+
+BEHAVIORS = ("constant", "social_force", "orca", "hrvo", "hl")
+_NAVGROUND = {"orca": "ORCABehavior", "hrvo": "HRVOBehavior", "hl": "HLBehavior"}
+NEIGHBOR_RANGE = 10.0  # [m] centre distance within which navground's behaviours see others
+MAX_NEIGHBORS = 10  # ORCA's and HRVO's nearest neighbours (CrowdNav's ORCA)
+ORCA_TIME_HORIZON = 5.0  # [s] for other agents and for walls (CrowdNav's ORCA)
+
+__all__ = ["BEHAVIORS", "MAX_SPEED_FACTOR", "Pedestrians"]
+
+
+class Pedestrians:
+    """L pedestrians moving by `behavior`, stepping once per control period dt and
+    interpolated linearly to the physics substeps.
+
+    Attributes:
+      z: (L,) complex centres now.
+      theta: (L,) headings (direction of the velocity; kept when standing).
+      velocity: (L, 2) world-frame velocities now (held over the last control period).
+      goal: (L, 2) current goals.
+      pref_speed, radius: (L,).
+    """
+
+    def __init__(
+        self,
+        behavior,
+        position,
+        velocity,
+        goal,
+        pref_speed,
+        radius,
+        walls,
+        bounds,
+        robot_radius,
+        robot_visible,
+        next_goal,
+        random,
+        dt,
+    ):
+        """
+        Args:
+          behavior: one of BEHAVIORS but "constant".
+          position, velocity, goal: (L, 2) at t = 0.
+          pref_speed, radius: (L,) > 0.
+          walls: (W, 4) segments x0, y0, x1, y1.
+          bounds: (4,) xmin, ymin, xmax, ymax of the map; not used: pedestrians may walk
+            beyond it (the corridor's ends).
+          robot_radius: [m]; robot_visible: whether the pedestrians react to the robot.
+          next_goal: next_goal(random, i, position) -> (new_position or None, new_goal (2,)),
+            called when pedestrian i is within its radius of its goal: None keeps walking from
+            where it is, a position respawns it there (its velocity kept).
+          random: np.random.RandomState handed to next_goal.
+          dt: control period [s].
+        """
+        if behavior not in BEHAVIORS[1:]:
+            if behavior == BEHAVIORS[0]:
+                raise ValueError(
+                    "behavior 'constant' moves with worlds.DubinsObstacles, not Pedestrians"
+                )
+            raise ValueError(f"unknown behavior {behavior!r}; valid behaviors: {BEHAVIORS}")
+        self.behavior = behavior
+        position = _array(position, "position", 2)
+        n = len(position)
+        self.velocity = _array(velocity, "velocity", 2, n)
+        self.goal = _array(goal, "goal", 2, n)
+        self.pref_speed = _positive(pref_speed, "pref_speed", n)
+        self.radius = _positive(radius, "radius", n)
+        self._walls = _array(np.zeros((0, 4)) if walls is None else walls, "walls", 4)
+        flat = np.flatnonzero(np.hypot(*(self._walls[:, 2:] - self._walls[:, :2]).T) == 0)
+        if len(flat):
+            raise ValueError(f"walls {flat} have zero length: give segments x0, y0, x1, y1")
+        if behavior == "hrvo" and len(self._walls):
+            raise ValueError(
+                "navground's HRVO ignores walls: in a world with walls use orca, hl or social_force"
+            )
+        self._robot_radius = float(robot_radius)
+        self._robot_visible = bool(robot_visible)
+        self._next_goal, self._random, self._dt = next_goal, random, float(dt)
+        self._pos = position.copy()
+        self.z = position[:, 0] + 1j * position[:, 1]
+        to_goal = self.goal - position
+        moving = np.hypot(*self.velocity.T) > 0
+        self.theta = np.where(
+            moving,
+            np.arctan2(self.velocity[:, 1], self.velocity[:, 0]),
+            np.arctan2(to_goal[:, 1], to_goal[:, 0]),
+        )
+        self._max_speed = MAX_SPEED_FACTOR * self.pref_speed
+        self._behaviors = None if behavior == "social_force" else self._navground_behaviors()
+
+    def advance(self, n, robot_xy, robot_velocity) -> np.ndarray:
+        """Moves one control period in n substeps; returns the centres after each substep as
+        complex (n, L) (the same contract as worlds.DubinsObstacles.advance). robot_xy,
+        robot_velocity (2,): the robot now (ignored unless robot_visible)."""
+        if self._robot_visible:
+            robot_xy = _point(robot_xy, "robot_xy")
+            robot_velocity = _point(robot_velocity, "robot_velocity")
+        self._arrivals()
+        start = self._pos
+        desired = self._desired()
+        if self._behaviors is None:
+            others = (robot_xy[None], [self._robot_radius]) if self._robot_visible else _NOBODY
+            end, velocity = social.step(
+                start, self.velocity, desired, self.radius, self._max_speed, self._dt, *others,
+                self._walls,
+            )  # fmt: skip
+        else:
+            velocity = self._navground_velocities(desired, robot_xy, robot_velocity)
+        bad = np.flatnonzero(~np.isfinite(velocity).all(axis=1))
+        if len(bad):
+            i = bad[0]
+            raise ValueError(
+                f"pedestrian {i} ({self.behavior}) got the non-finite velocity {velocity[i]} at "
+                f"position {start[i]}, goal {self.goal[i]}"
+            )
+        if self._behaviors is not None:
+            end = start + self._dt * velocity
+        z0, z1 = self.z, end[:, 0] + 1j * end[:, 1]
+        z = z0 + (np.arange(1, n + 1) / n)[:, None] * (z1 - z0)
+        z[-1] = z1
+        speed = np.hypot(*velocity.T)
+        self.theta = np.where(speed > 0, np.arctan2(velocity[:, 1], velocity[:, 0]), self.theta)
+        self._pos, self.velocity, self.z = end, velocity, z1
+        return z
+
+    def _arrivals(self):
+        """Pedestrians within their radius of their goals get their next goals (in index order)."""
+        gap = np.hypot(*(self.goal - self._pos).T)
+        for i in np.flatnonzero(gap <= self.radius):
+            position, goal = self._next_goal(self._random, int(i), self._pos[i].copy())
+            self.goal[i] = _point(goal, "next_goal's goal")
+            if position is not None:
+                self._pos[i] = _point(position, "next_goal's position")
+                self.z[i] = complex(*self._pos[i])
+
+    def _desired(self):
+        """Desired velocities (L, 2): towards the goals at the preferred speeds."""
+        to_goal = self.goal - self._pos
+        distance = np.hypot(*to_goal.T)
+        scale = np.divide(
+            self.pref_speed, distance, out=np.zeros_like(distance), where=distance > 0
+        )
+        return to_goal * scale[:, None]
+
+    def _navground_behaviors(self):
+        """One navground behaviour per pedestrian, walls set once."""
+        try:
+            import navground.core as core
+        except ImportError as error:
+            raise ImportError(
+                f"behavior {self.behavior!r} needs navground: pip install navground"
+            ) from error
+        self._core = core
+        lines = [core.LineSegment(w[:2], w[2:]) for w in self._walls]
+        behaviors = []
+        for i in range(len(self._pos)):
+            kinematics = core.kinematics.OmnidirectionalKinematics(self._max_speed[i])
+            behavior = getattr(core.behaviors, _NAVGROUND[self.behavior])(
+                kinematics=kinematics, radius=self.radius[i]
+            )
+            if self.behavior == "orca":
+                behavior.time_horizon = ORCA_TIME_HORIZON
+                behavior.static_time_horizon = ORCA_TIME_HORIZON
+            if self.behavior in ("orca", "hrvo"):
+                behavior.max_number_of_neighbors = MAX_NEIGHBORS
+            behavior.optimal_speed = self.pref_speed[i]
+            state = behavior.environment_state
+            state.line_obstacles = lines
+            behaviors.append((behavior, state))
+        return behaviors
+
+    def _navground_velocities(self, desired, robot_xy, robot_velocity):
+        """Every behaviour's command (L, 2) from the same state (pedestrians move together)."""
+        core = self._core
+        pos, vel = self._pos, self.velocity
+        distance = np.hypot(*(pos[:, None] - pos[None]).transpose(2, 0, 1))
+        np.fill_diagonal(distance, np.inf)
+        if self._robot_visible:
+            robot = [core.Neighbor(robot_xy, self._robot_radius, robot_velocity)]
+            near_robot = np.hypot(*(pos - robot_xy).T) < NEIGHBOR_RANGE
+        stop = core.Target.Stop()
+        out = np.empty_like(vel)
+        for i, (behavior, state) in enumerate(self._behaviors):
+            behavior.position = pos[i]
+            behavior.velocity = vel[i]
+            behavior.actuated_twist = core.Twist2(vel[i])  # HL relaxes from the actuated twist
+            behavior.orientation = self.theta[i]
+            neighbors = [
+                core.Neighbor(pos[j], self.radius[j], vel[j])
+                for j in np.flatnonzero(distance[i] < NEIGHBOR_RANGE)
+            ]
+            if self._robot_visible and near_robot[i]:
+                neighbors += robot
+            state.neighbors = neighbors
+            # At its goal: navground's Stop (HRVO turns a zero target velocity into nan)
+            moving = desired[i, 0] or desired[i, 1]
+            behavior.target = core.Target.Velocity(desired[i]) if moving else stop
+            out[i] = behavior.compute_cmd(self._dt, core.Frame.absolute, True).velocity
+        return out
+
+
+_NOBODY = (np.zeros((0, 2)), np.zeros(0))  # no robot among the pushing agents
+
+
+def _array(value, name, columns, rows=None):
+    """value as a finite float64 (rows, columns) array, else a ValueError naming it."""
+    value = np.array(value, dtype=np.float64)
+    if value.ndim != 2 or value.shape[1] != columns or rows not in (None, len(value)):
+        expected = f"({'L' if rows is None else rows}, {columns})"
+        raise ValueError(f"{name} must have shape {expected}; got {value.shape}")
+    if not np.isfinite(value).all():
+        raise ValueError(
+            f"{name} must be finite; rows {np.flatnonzero(~np.isfinite(value).all(1))}"
+        )
+    return value
+
+
+def _point(value, name):
+    """value as a finite float64 (2,) array, else a ValueError naming it."""
+    value = np.asarray(value, dtype=np.float64)
+    if value.shape != (2,) or not np.isfinite(value).all():
+        raise ValueError(f"{name} must be a finite (2,) array; got {value!r}")
+    return value
+
+
+def _positive(value, name, rows):
+    """value as a float64 (rows,) array > 0, else a ValueError naming the first bad index."""
+    value = np.array(value, dtype=np.float64)
+    if value.shape != (rows,):
+        raise ValueError(f"{name} must have shape ({rows},); got {value.shape}")
+    bad = np.flatnonzero(~(np.isfinite(value) & (value > 0)))
+    if len(bad):
+        raise ValueError(f"{name} must be > 0; pedestrian {bad[0]} has {float(value[bad[0]])}")
+    return value

@@ -272,8 +272,9 @@ def test_bench_prints_a_summary_and_report_the_tables(tmp_path, capsys):
     assert cli.main(["report", "--db", str(db), "--out", str(out), "--no-plots"]) == 0
     text = capsys.readouterr().out
     assert "Partial" not in text and "Still being written" not in text
-    main, diagnostics = text.split("\n\n")
+    main, metrics, diagnostics = text.split("\n\n")
     assert "| none | tube | 1 |" in main and "Collisions vs mppi: McNemar" in main
+    assert "Success %" in metrics.splitlines()[0] and "| none | tube | 1 |" in metrics
     tube = next(line for line in diagnostics.splitlines() if "| tube |" in line)
     assert tube.endswith("|") and "| - | - |" in tube  # tube: ESS and deviation, no clusters
     assert "Tube deviation p95" in (out / "report.md").read_text()

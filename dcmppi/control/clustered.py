@@ -8,7 +8,13 @@ works at every step, for every agent and perturbation (docs/design.md):
   in nu dimensions.
 - cost: (S_k - min S) in units of cost_unit / (collision_gap x radius), cost_unit = alpha by
   default: a rollout with one more colliding state lies `collision_gap` DBSCAN radii away from an
-  otherwise equal one, while the goal-distance part of the cost varies smoothly. So a value peak
+  otherwise equal one, while the goal-distance part of the cost varies smoothly. The
+  moving-obstacle term M_k of S_k is measured in its own unit, the prediction's collision_cost
+  (frozen obstacles: alpha; sampled futures: beta): the cost feature is
+  (S_k - M_k) / cost_unit + M_k / collision_cost (times collision_gap x radius), so a state
+  certainly inside a moving obstacle (all its P futures) moves a sample as far as a static
+  collision does, and one of P futures 1 / P of that. Measured in alpha, beta = alpha / 10
+  would move it half a radius, inside one DBSCAN ball (docs/design.md). So a value peak
   and its flanks (samples that pass the obstacle, farther and farther out) stay one cluster,
   and the ridge of samples through an obstacle is cut off from both peaks (paper Fig. 2: "sharp
   changes in the cost will cause a new cluster boundary").
@@ -125,7 +131,7 @@ def cluster_updates(U0, eps, S, lambda_, labels, raw=None, bound=None):
         raise ValueError(f"raw needs one control and shape (K,) = ({K},); got {np.shape(raw)}")
     M = int(labels.max()) + 1 if K else 0
     w = _cluster_exponents(S, labels, M, lambda_)
-    np.exp(w, out=w)  # numpy's vectorised exp: several times faster than numba's scalar one
+    np.exp(w, out=w)  # numpy's vectorised exp, not numba's scalar one (docs/performance.md)
     if raw is None:
         raw, bound = np.zeros(0), 0.0
     flat = np.reshape(eps, (N * nu, K))
@@ -213,9 +219,15 @@ class ClusteredMPPI(MPPI):
 
     def _solve(self, state):
         timer = self.timer
-        eps, states, J, S, sums = self.rollouts(state, sums=True)
+        eps, states, J, S, sums, term = self.rollouts(state, sums=True, moving=True)
         with timer("features"):
-            features = features_of_sums(sums, S, self._feature_inv, self._cost_scale)
+            unit = self.objective.prediction.unit
+            cost = (
+                S
+                if term is None or unit == self.cost_unit
+                else S + term * (self.cost_unit / unit - 1.0)
+            )  # moving-obstacle term in units of the prediction's collision_cost
+            features = features_of_sums(sums, cost, self._feature_inv, self._cost_scale)
         with timer("DBSCAN"):
             best = int(np.argmin(S))
             labels = cluster_labels(features, self.dbscan_eps, self.dbscan_min_samples, best)

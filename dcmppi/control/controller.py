@@ -232,17 +232,18 @@ class Controller:
         clustering features."""
         return project_perturbed(self.agent, U0, eps, sums)
 
-    def evaluate(self, x0, u, starts=1):
+    def evaluate(self, x0, u, starts=1, moving=False):
         """Rollouts and their costs under this step's objective. x0: (3,) or (3, R);
-        u: (N, nu, R). Returns states (3, N + 1, R), J (R,).
+        u: (N, nu, R). Returns states (3, N + 1, R), J (R,), and with moving=True the
+        moving-obstacle term of J (R,) (None: 0).
 
         starts = S > 1: x0 (3, S) start states that all take the R sequences; R becomes S R.
         """
         with self.timer("rollout"):
             states = self.agent.rollout(x0, u, self.dt, starts)
         with self.timer("objective"):
-            J = self.objective(states)
-        return states, J
+            J = self.objective(states, moving)
+        return (states, *J) if moving else (states, J)
 
     def importance(self, U0, eps):
         """gamma lambda sum_i u_i^T Sigma^-1 eps_i for each sample (K,)."""

@@ -39,18 +39,19 @@ class MPPI(Controller):
     U = U0 + sum w eps, apply U[0], shift U as the next warm start.
     """
 
-    def rollouts(self, state, sums=False):
+    def rollouts(self, state, sums=False, moving=False):
         """Sample, roll out and score: eps (N, nu, K), states (3, N + 1, K), J (K,), S (K,);
-        with sums=True also the horizon sums of eps (nu, K) (see Controller.controls)."""
+        with sums=True also the horizon sums of eps (nu, K) (see Controller.controls), with
+        moving=True also J's moving-obstacle term (K,) (None: 0)."""
         timer = self.timer
         with timer("sample"):
             eps = self.sample()
         with timer("controls"):
             u, eps, *out = self.controls(self.U, eps, sums)
-        states, J = self.evaluate(state, u)
+        states, J, *term = self.evaluate(state, u, moving=moving)
         with timer("importance"):
             S = J + self.importance(self.U, eps)
-        return eps, states, J, S, *out
+        return eps, states, J, S, *out, *term
 
     def record(self, eps, states, J, S):
         d = self.diagnostics

@@ -46,18 +46,22 @@ class Objective:
             else NO_TRACKS
         )
 
-    def __call__(self, states):
-        """J (R,) of the rollouts states (3, N + 1, R) (x, y, theta; only x, y are used)."""
+    def __call__(self, states, moving=False):
+        """J (R,) of the rollouts states (3, N + 1, R) (x, y, theta; only x, y are used); with
+        moving=True also the moving-obstacle term (R,) inside J, or None where it is 0."""
         x, y = states[0], states[1]
         if self.grid.empty or not self.alpha:
             J = goal_distance(x, y, self.goal)
         else:
             J = static_costs(x, y, self.goal, self.grid, self.alpha)
+        term = None
         if not self.tracks.empty:
-            J += self.weight * self.tracks.count(x, y)
-        return J
+            term = self.weight * self.tracks.count(x, y)
+            J += term
+        return (J, term) if moving else J
 
     def moving(self, states):
         """The moving-obstacle term (R,) alone: weight x the collisions with the tracks."""
-        x, y = states[0], states[1]
-        return self.weight * self.tracks.count(x, y)
+        if self.tracks.empty:
+            return np.zeros(states.shape[2])
+        return self.weight * self.tracks.count(states[0], states[1])

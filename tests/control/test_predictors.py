@@ -162,3 +162,29 @@ def test_a_registered_predictor_plans_and_bad_ones_are_named():
             ctrl.act(np.zeros(3), np.array([6.0, 0.0]), None, CROSSING, MODEL)
     finally:
         base._PREDICTORS.pop("lazy", None)
+
+
+@pytest.mark.parametrize("prediction", ["frozen", "prior"])
+def test_clustered_measures_the_moving_term_in_the_predictions_collision_cost(prediction):
+    """The cost feature is ((S - M) / alpha + M / collision_cost) x gap x radius (up to its
+    minimum): a state certainly inside a moving obstacle moves a sample as far as a static
+    collision; frozen obstacles (collision_cost alpha) keep the plain (S - min S) scale."""
+    ctrl = dcmppi.make_controller("clustered", prediction=prediction, K=200, N=20, P=5, seed=2)
+    ctrl.act(np.zeros(3), np.array([6.0, 0.0]), None, np.array([[2.5, 0.3, np.pi, 0.5]]), MODEL)
+    d = ctrl.diagnostics
+    M = ctrl.objective.moving(d.states.transpose(2, 1, 0))
+    assert (M > 0).any() and M.max() > M.min()
+    unit = {"frozen": ctrl.alpha, "prior": ctrl.beta}[prediction]
+    assert d.prediction.unit == unit
+    cost = (d.S - M) / ctrl.alpha + M / unit
+    expected = (cost - cost.min()) * ctrl.collision_gap * ctrl.dbscan_eps
+    np.testing.assert_allclose(d.features[:, -1], expected, rtol=1e-9, atol=1e-9)
+
+
+def test_objective_without_tracks_has_no_moving_term():
+    grid = OccupancyGrid(None, 0.5)
+    objective = Objective(np.zeros(2), grid, 1000.0, make_predictor("frozen", **SHARED).none())
+    states = np.zeros((3, 21, 4))
+    np.testing.assert_array_equal(objective.moving(states), np.zeros(4))
+    J, term = objective(states, moving=True)
+    assert term is None and J.shape == (4,)

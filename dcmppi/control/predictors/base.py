@@ -19,6 +19,9 @@ class Prediction:
       [m]: a state x_i collides with track j when |p_i - tracks[j, i]| <= distance[j].
     weight: cost of one collision of one state with one track (frozen: alpha; sampled futures:
       beta theta with theta = 1 / P).
+    collision_cost: what one state pays for a certain collision with one obstacle (all its
+      tracks hit): frozen alpha, sampled futures beta. Clustered MPPI measures the
+      moving-obstacle term in this unit (dcmppi.control.clustered). None: `weight`.
     futures: (L', P, N + 1, 2) the sampled futures by obstacle, for diagnostics and videos, or
       None.
     posterior: (mean (L, 5), cov (L, 5, 5)) of each obstacle's x, y, heading, speed, turn rate
@@ -30,6 +33,12 @@ class Prediction:
     weight: float
     futures: np.ndarray | None = None
     posterior: tuple | None = None
+    collision_cost: float | None = None
+
+    @property
+    def unit(self) -> float:
+        """collision_cost, or weight when it is not given."""
+        return self.weight if self.collision_cost is None else self.collision_cost
 
 
 class Predictor:

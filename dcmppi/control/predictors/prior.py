@@ -74,6 +74,7 @@ class SampledFutures(Predictor):
             np.repeat(radius[near] + self.robot_radius, self.P),
             self.beta / self.P,
             futures,
+            collision_cost=self.beta,
         )
 
     def none(self):
@@ -82,6 +83,7 @@ class SampledFutures(Predictor):
             np.zeros(0),
             self.beta / self.P,
             np.zeros((0, self.P, self.N + 1, 2)),
+            collision_cost=self.beta,
         )
 
 

@@ -1,1 +1,5 @@
-"""MJCF models of the robot, the obstacles and the arenas (package data)."""
+"""MJCF models of the arena and the obstacles (package data; robots/: one file per robot).
+
+Data only: no Python imports. Installed as dcmppi.models (pyproject.toml, package-dir); the
+tasks load these files with importlib.resources.
+"""

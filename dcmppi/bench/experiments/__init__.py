@@ -6,6 +6,9 @@ stream. That makes every comparison paired. An experiment with `env_param` (e.g.
 BARN world of the `layout` task) also sets that task parameter to i in environment i. The
 shipped experiments (static, dynamic, dynamic-dubins, barn) are TOML files beside this module;
 `load_experiment` takes their names or a path. The file format: `dcmppi.bench.experiments.schema`.
+
+May import dcmppi.tasks (task names, noise profiles) and dcmppi.bench.plugins (controller
+names); runs nothing itself.
 """
 
 from __future__ import annotations

@@ -20,7 +20,9 @@ them alike.
 Modules: `worlds` (the problems), `cases` (the table's rows and the variants), `loop` (a timed
 closed loop, interleaved timing), `profile` (`--profile`, through the controllers' timer hook),
 `fingerprint` (`--fingerprint`), `cli` (the options and the table). Only the entry points (`main`,
-`python -m dcmppi.bench.timing`) tune malloc for the process.
+`python -m dcmppi.bench.timing`) tune malloc for the process. May import dcmppi.control, the
+tasks' world generators (dcmppi.tasks.worlds) and dcmppi.bench.peer; nothing imports it but the
+command line.
 """
 
 from .cli import main

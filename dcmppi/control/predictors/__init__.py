@@ -8,6 +8,9 @@ parameters (`own_params`) alongside the planner's. Built in:
   Alg. 3);
 - "ekf": P futures drawn from a Gaussian-sum EKF of each obstacle (parameter measurement_std).
 A new predictor is a `Predictor` subclass registered by name (README, "Your own predictor").
+
+May import numpy, numba and dcmppi.control's kernels (dynamics, normal, social, validation);
+never a planner, MuJoCo or the tasks (a predictor sees observations, not the world).
 """
 
 from . import ekf, frozen, prior  # noqa: F401  (registers the built-in predictors)

@@ -204,11 +204,13 @@ class Pedestrians:
             robot = [core.Neighbor(robot_xy, self._robot_radius, robot_velocity)]
             near_robot = np.hypot(*(pos - robot_xy).T) < NEIGHBOR_RANGE
         stop = core.Target.Stop()
+        relaxes = self.behavior == "hl"
         out = np.empty_like(vel)
         for i, (behavior, state) in enumerate(self._behaviors):
             behavior.position = pos[i]
             behavior.velocity = vel[i]
-            behavior.actuated_twist = core.Twist2(vel[i])  # HL relaxes from the actuated twist
+            if relaxes:  # HL relaxes from its actuated twist, not from the velocity
+                behavior.actuated_twist = core.Twist2(vel[i])
             behavior.orientation = self.theta[i]
             neighbors = [
                 core.Neighbor(pos[j], self.radius[j], vel[j])

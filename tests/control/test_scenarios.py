@@ -4,6 +4,8 @@ import pytest
 
 from dcmppi.bench.runner import EpisodeSpec, run_episode
 
+pytestmark = pytest.mark.slow  # whole MuJoCo episodes, six per test
+
 
 @pytest.mark.parametrize("agent", ["dubins", "holonomic"])
 def test_dc_passes_the_head_on_crossing_where_mppi_collides(agent):

@@ -1,8 +1,8 @@
-"""`crowd`: 100 moving Dubins cylinders (paper Sec. IV-B; docs/design.md)."""
+"""`crowd`: 100 moving Dubins cylinders (paper Sec. IV-B; docs/design.md), or walkers."""
 
 from dcmppi.control.validation import positive
 
-from . import navigation, worlds
+from . import navigation, pedestrians, worlds
 
 
 class Crowd(navigation.Navigation):
@@ -11,6 +11,11 @@ class Crowd(navigation.Navigation):
     The observation's `obstacle_model` is the Gaussian with the uniforms' mean and std. The
     robot is the velocity-controlled `holonomic` agent by default (paper Sec. IV-B); with
     agent="dubins" the crowd is the hard variant (a constant-speed car cannot stop).
+
+    `behavior`: "constant" (default) moves them on Dubins arcs (`worlds.DubinsObstacles`);
+    any other of pedestrians.BEHAVIORS makes them pedestrians that walk to uniform random
+    goals in the map (a new one on arrival) at preferred speeds drawn from `speed_range`
+    (`worlds.generate_crowd`), reacting to the robot if `robot_visible`.
     """
 
     default_agent = "holonomic"
@@ -21,12 +26,17 @@ class Crowd(navigation.Navigation):
         speed_range=worlds.OBSTACLE_SPEED_RANGE,
         turn_rate_range=worlds.OBSTACLE_TURN_RATE_RANGE,
         obstacle_radius=worlds.MOVING_OBSTACLE_RADIUS,
+        behavior=worlds.BEHAVIOR_CONSTANT,
+        robot_visible=False,
         **kwargs,
     ):
         n_obstacles = positive("n_obstacles", n_obstacles, integer=True, allow_zero=True)
+        self.behavior = navigation.check_behavior(behavior, pedestrians.BEHAVIORS)
+        self.robot_visible = navigation.check_flag("robot_visible", robot_visible)
         super().__init__(**kwargs)
-        self.speed_range = _range("speed_range", speed_range, low=0.0)
-        self.turn_rate_range = _range("turn_rate_range", turn_rate_range)
+        walking = behavior != worlds.BEHAVIOR_CONSTANT  # pedestrians need a speed > 0
+        self.speed_range = navigation.check_range("speed_range", speed_range, 0.0, walking)
+        self.turn_rate_range = navigation.check_range("turn_rate_range", turn_rate_range)
         self.obstacle_radius = positive("obstacle_radius", obstacle_radius)
         self.num_moving = n_obstacles
 
@@ -38,16 +48,6 @@ class Crowd(navigation.Navigation):
             self.speed_range,
             self.turn_rate_range,
             self.obstacle_radius,
+            behavior=self.behavior,
+            robot_visible=self.robot_visible,
         )
-
-
-def _range(name, value, low=None):
-    try:
-        lo, hi = (float(x) for x in value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a pair (low, high), got {value!r}") from None
-    if not lo <= hi or (low is not None and lo < low):
-        raise ValueError(
-            f"{name} must satisfy {'' if low is None else f'{low} <= '}low <= high, got {value!r}"
-        )
-    return lo, hi

@@ -1,11 +1,12 @@
 """The shared plant and task of every benchmark world: a robot among cylinders.
 
 `Physics` owns the MuJoCo model (models/arena.xml with one robot of models/robots/ and a fixed
-number of obstacle slots), moves the moving obstacles every physics substep, and records
-robot-obstacle contacts and the analytic clearance. `Navigation` is the dm_control task: it
-draws a `worlds.World` per episode, maps the agent's controls to the actuators, injects noise,
-and ends the episode at the goal, on a collision, when the robot leaves the map, or at the time
-limit. Subclasses only say how a world is drawn.
+number of obstacle slots), moves the moving obstacles every physics substep (Dubins arcs for the
+"constant" behaviour, else `pedestrians.Pedestrians`), and records robot-obstacle contacts and
+the analytic clearance; walls are rows of static cylinders (worlds.wall_cylinders).
+`Navigation` is the dm_control task: it draws a `worlds.World` per episode, maps the agent's
+controls to the actuators, injects noise, and ends the episode at the goal, on a collision,
+when the robot leaves the map, or at the time limit. Subclasses only say how a world is drawn.
 """
 
 import collections
@@ -25,7 +26,7 @@ from dcmppi.control import defaults
 from dcmppi.control.agents import make_agent
 from dcmppi.control.validation import positive
 
-from . import robots, worlds
+from . import pedestrians, robots, worlds
 
 PHYSICS_TIMESTEP = 0.01  # [s] MuJoCo timestep: 10 substeps per control step (defaults.DT)
 GOAL_TOLERANCE = 1.0  # [m] the goal is reached within this distance
@@ -38,6 +39,7 @@ OBSTACLE_HALF_HEIGHT = 0.5  # [m]
 PARKED = -1000.0  # [m] x, y of unused static slots (also disabled and hidden)
 MEASUREMENT_STREAM = 1  # spawn key of the measurement-noise stream under the noise seed
 _HIDDEN_GROUP = 3  # geom group that MuJoCo's renderer hides by default
+PEDESTRIAN_TIME_FACTOR = 5.0  # pedestrian tasks: time limit / time to drive the map's longer side
 
 
 ROBOT_PREFIX = "robot/"  # names of the attached robot file's elements get this prefix
@@ -127,6 +129,8 @@ class Physics(dm_mujoco.Physics):
         self._mocap_xy = d.mocap_pos[self._mocap, :2]
         self._mocap_quat = d.mocap_quat[self._mocap]
         self._moving = None
+        self._walking = False  # the moving obstacles are pedestrians.Pedestrians
+        self.control_period = defaults.DT  # [s] make_environment sets the environment's
         self._moving_obs = np.zeros((num_moving, 4))
         self._solid = np.zeros((0, 3))
         self._solid_ids = self._static_ids[:0]
@@ -152,11 +156,15 @@ class Physics(dm_mujoco.Physics):
 
     # Episode set-up -------------------------------------------------------------------------
 
-    def set_world(self, world: worlds.World, velocity, command, top_speed):
+    def set_world(
+        self, world: worlds.World, velocity, command, top_speed, next_goal=None, random=None
+    ):
         """Places robot, goal and obstacles of `world`; clears the records.
 
         velocity: the robot's world-frame (vx, vy, yaw rate) at the start; command: the three
-        actuator targets at the start; top_speed: the robot's fastest planar speed [m/s]."""
+        actuator targets at the start; top_speed: the robot's fastest planar speed [m/s].
+        Pedestrian worlds (behavior not "constant") also need next_goal(random, i, position)
+        and random (np.random.RandomState), see `pedestrians.Pedestrians`."""
         m = self._m
         static = world.static
         solid = static[:, 2] > 0
@@ -178,7 +186,29 @@ class Physics(dm_mujoco.Physics):
         _set_cylinders(m, self._moving_ids, moving[:, 3])
         m.geom_conaffinity[self._moving_ids] = 0
         m.body_conaffinity[self._moving_bodies] = 0
-        if len(moving):
+        self._walking = len(moving) > 0 and world.behavior != worlds.BEHAVIOR_CONSTANT
+        obstacle_speed = 0.0
+        if self._walking:
+            heading = np.column_stack([np.cos(moving[:, 2]), np.sin(moving[:, 2])])
+            # They walk in the map and along its walls (the corridor's reach past its ends).
+            corners = np.concatenate([world.map_bounds.reshape(2, 2), world.walls.reshape(-1, 2)])
+            self._moving = pedestrians.Pedestrians(
+                world.behavior,
+                moving[:, :2],
+                world.moving_speed[:, None] * heading,
+                world.moving_goal,
+                world.moving_pref_speed,
+                moving[:, 3],
+                world.walls,
+                [*corners.min(axis=0), *corners.max(axis=0)],
+                self.robot_radius,
+                world.robot_visible,
+                next_goal,
+                random,
+                self.control_period,
+            )
+            obstacle_speed = pedestrians.MAX_SPEED_FACTOR * world.moving_pref_speed.max()
+        elif len(moving):
             self._moving = worlds.DubinsObstacles(
                 moving[:, :3],
                 world.moving_speed,
@@ -186,12 +216,13 @@ class Physics(dm_mujoco.Physics):
                 world.map_bounds,
                 self.timestep(),
             )
-            self._mocap_xy[:] = moving[:, :2]
-            self._set_mocap_heading(moving[:, 2])
+            obstacle_speed = np.abs(world.moving_speed).max()
         else:
             self._moving = None
+        if len(moving):
+            self._mocap_xy[:] = moving[:, :2]
+            self._set_mocap_heading(moving[:, 2])
         # Fastest closing speed robot-obstacle, with room for disturbances [m/s].
-        obstacle_speed = np.abs(world.moving_speed).max() if len(moving) else 0.0
         self._speed_bound = 2.0 * top_speed + 1.0 + obstacle_speed
 
         x, y, _ = world.start
@@ -230,13 +261,22 @@ class Physics(dm_mujoco.Physics):
 
         Every substep integrates (mj_step2), moves the mocap obstacles to the new time, then
         recomputes positions and contacts (mj_step1), so contacts always compare robot and
-        obstacles at the same instant.
+        obstacles at the same instant. Pedestrians plan the whole step from the robot's position
+        and velocity at its start.
         """
         m, d = self._m, self._d
-        self._activate_near(nstep * self.timestep())
         moving = moving_xy = None
-        if self._moving is not None:
+        if self._walking:
+            robot_xy = self._qpos[:2].copy()
+            moving = self._moving.advance(nstep, robot_xy, self._qvel[:2].copy())
+            # one that reached its goal may reappear elsewhere: its clearance from there
+            self._moving_clearance = (
+                np.abs(moving[0] - complex(*robot_xy)) - self._moving_obs[:, 3] - self.robot_radius
+            )
+        elif self._moving is not None:
             moving = self._moving.advance(nstep)
+        self._activate_near(nstep * self.timestep())
+        if moving is not None:
             moving_xy = np.stack([moving.real, moving.imag], axis=-1)
         robot = np.empty(nstep, dtype=np.complex128)
         qpos = self._qpos
@@ -314,6 +354,12 @@ class Physics(dm_mujoco.Physics):
             obs[:, 2] = self._moving.theta
         return obs
 
+    def moving_velocity(self):
+        """(L, 2) world-frame velocities of the moving obstacles now."""
+        if self._moving is None:
+            return np.zeros((len(self._moving_obs), 2))
+        return np.array(self._moving.velocity, dtype=np.float64)
+
     def clearance(self):
         """Minimum robot-obstacle surface distance now [m] (inf without obstacles)."""
         return self._clearance
@@ -341,8 +387,12 @@ class Navigation(control.Task):
     Measurements: obstacle_measurement_std > 0 [m] adds N(0, std^2) to each coordinate of every
     moving obstacle's observed position at every control step (a stream of its own, derived
     from the episode's noise seed, so world and control noise stay those of std = 0), and the
-    headings are then not observed: that column of `moving_obstacles` is nan. Rows keep their
-    order (obstacles are matched by index). std = 0 (default) observes the exact poses.
+    headings and velocities are then not observed: that column of `moving_obstacles` and
+    `moving_velocity` are nan. Rows keep their order (obstacles are matched by index). std = 0
+    (default) observes the exact poses and velocities (L, 2) (world frame).
+    Pedestrians (tasks whose `behavior` is not "constant"): the observation never shows their
+    goals or preferred speeds; on reaching its goal pedestrian i gets the next from
+    `next_goal`.
     """
 
     default_agent = "dubins"
@@ -399,6 +449,13 @@ class Navigation(control.Task):
         """Draws this episode's world from `random` (a RandomState)."""
         raise NotImplementedError
 
+    def next_goal(self, random, i, position):
+        """Pedestrian i's next goal on reaching its goal at `position` (2,): (None, goal (2,)),
+        None keeping it where it is. This one draws a uniform point of the map at least its
+        radius inside the edges from `random` (the episode's world RandomState)."""
+        radius = self.world.moving[i, 3]
+        return None, worlds.random_points(random, 1, self.world.map_bounds, radius)[0]
+
     @property
     def map_bounds(self) -> np.ndarray:
         """(4,) xmin, ymin, xmax, ymax of this instance's map."""
@@ -433,7 +490,8 @@ class Navigation(control.Task):
 
     def initialize_episode(self, physics):
         world_seed, noise_seed = self.random.randint(0, 2**31 - 1, size=2)
-        world = self.generate_world(np.random.RandomState(world_seed))
+        world_random = np.random.RandomState(world_seed)  # the world, then the pedestrians' goals
+        world = self.generate_world(world_random)
         if world.static.shape != (self.num_static, 3) or world.moving.shape != (self.num_moving, 4):
             raise RuntimeError(f"{type(self).__name__} drew a world of the wrong size")
         self.world = world
@@ -441,7 +499,9 @@ class Navigation(control.Task):
         self._measurement_random = np.random.default_rng([noise_seed, MEASUREMENT_STREAM])
         velocity = robots.start_velocity(self.agent, world.start[2])
         command = self._command(self.agent.first_guess(world.start, world.goal, 1)[0])
-        physics.set_world(world, velocity, command, self.agent.max_speed)
+        physics.set_world(
+            world, velocity, command, self.agent.max_speed, self.next_goal, world_random
+        )
         self._outcome = None
         self._min_clearance = physics.min_clearance
         self._observation = collections.OrderedDict(
@@ -450,6 +510,7 @@ class Navigation(control.Task):
             goal=world.goal,
             static_obstacles=world.static,
             moving_obstacles=None,
+            moving_velocity=None,
             obstacle_model=world.obstacle_model,
             map_bounds=world.map_bounds,
             clearance=None,
@@ -496,18 +557,22 @@ class Navigation(control.Task):
         obs = self._observation.copy()
         obs["robot_pose"] = physics.robot_pose()
         obs["robot_velocity"] = physics.robot_velocity()
-        obs["moving_obstacles"] = self._measure(physics.moving_obstacles())
+        obs["moving_obstacles"], obs["moving_velocity"] = self._measure(
+            physics.moving_obstacles(), physics.moving_velocity()
+        )
         obs["clearance"] = np.array([physics.clearance()])
         return obs
 
-    def _measure(self, moving):
-        """The observed moving obstacles (L, 4): positions with measurement noise and headings
-        nan when obstacle_measurement_std > 0, else the exact poses."""
+    def _measure(self, moving, velocity):
+        """The observed moving obstacles (L, 4) and velocities (L, 2): positions with
+        measurement noise, headings and velocities nan when obstacle_measurement_std > 0, else
+        the exact values."""
         std = self.obstacle_measurement_std
         if std > 0:
             moving[:, :2] += std * self._measurement_random.standard_normal((len(moving), 2))
             moving[:, 2] = np.nan
-        return moving
+            velocity[:] = np.nan
+        return moving, velocity
 
     def get_reward(self, physics):
         return 1.0 if self._outcome == "goal" else 0.0
@@ -528,6 +593,7 @@ class Navigation(control.Task):
             goal=(2,),
             static_obstacles=(self.num_static, 3),
             moving_obstacles=(self.num_moving, 4),
+            moving_velocity=(self.num_moving, 2),
             obstacle_model=(4,),
             map_bounds=(4,),
             clearance=(1,),
@@ -535,6 +601,64 @@ class Navigation(control.Task):
         return collections.OrderedDict(
             (name, specs.Array(shape, np.float64, name=name)) for name, shape in shapes.items()
         )
+
+
+def check_behavior(behavior, valid):
+    """`behavior` if it is one of `valid` (names), else a ValueError listing them."""
+    if behavior not in valid:
+        raise ValueError(f"unknown behavior {behavior!r}; valid behaviors: {', '.join(valid)}")
+    return behavior
+
+
+def check_range(name, value, low=None, strict=False):
+    """`value` as a pair of floats (lo, hi) with lo <= hi and low <= lo (low < lo if strict),
+    else a ValueError naming `name`."""
+    try:
+        lo, hi = (float(x) for x in value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a pair (low, high), got {value!r}") from None
+    below = low is not None and (lo <= low if strict else lo < low)
+    if not lo <= hi or below:
+        bound = "" if low is None else f"{low} {'<' if strict else '<='} "
+        raise ValueError(f"{name} must satisfy {bound}low <= high, got {value!r}")
+    return lo, hi
+
+
+def check_flag(name, value):
+    """`value` if it is True or False, else a ValueError naming `name`."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be true or false; got {value!r}")
+    return bool(value)
+
+
+class PedestrianNavigation(Navigation):
+    """Navigation among pedestrians that walk to goals (the corridor and the square).
+
+    `behavior` is how they walk, one of pedestrians.BEHAVIORS but "constant" (the crowd's
+    Dubins obstacles); `robot_visible`: whether they react to the robot (default False, as
+    CrowdNav++). The robot is the `holonomic` agent by default. Time limit: by default
+    PEDESTRIAN_TIME_FACTOR x the time to drive the map's longer side at the agent's top speed,
+    room to wait for a gap and to detour, while an episode stuck behind pedestrians still ends.
+    """
+
+    default_agent = "holonomic"
+
+    def __init__(self, n_pedestrians, pedestrian_radius, behavior, robot_visible, **kwargs):
+        n_pedestrians = positive("n_pedestrians", n_pedestrians, integer=True, allow_zero=True)
+        walking = tuple(b for b in pedestrians.BEHAVIORS if b != worlds.BEHAVIOR_CONSTANT)
+        self.behavior = check_behavior(behavior, walking)
+        self.robot_visible = check_flag("robot_visible", robot_visible)
+        self.pedestrian_radius = positive("pedestrian_radius", pedestrian_radius)
+        super().__init__(**kwargs)
+        self.num_moving = n_pedestrians
+
+    @property
+    def time_limit(self) -> float:
+        if self._time_limit is not None:
+            return self._time_limit
+        xmin, ymin, xmax, ymax = self.map_bounds
+        longer = max(xmax - xmin, ymax - ymin)
+        return PEDESTRIAN_TIME_FACTOR * longer / self.agent.max_speed
 
 
 def make_environment(task: Navigation, environment_kwargs=None) -> control.Environment:
@@ -550,4 +674,5 @@ def make_environment(task: Navigation, environment_kwargs=None) -> control.Envir
         task.num_static, task.num_moving, task.map_bounds, task.robot_radius, task.plant.model
     )
     physics.model.opt.timestep = PHYSICS_TIMESTEP
+    physics.control_period = float(environment_kwargs["control_timestep"])
     return control.Environment(physics, task, **environment_kwargs)

@@ -7,12 +7,14 @@
     obs, info = env.reset(seed=0)
     obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
 
-Ids: dcmppi/Forest-v0, dcmppi/Crowd-v0, dcmppi/Blocked-v0, dcmppi/Crossing-v0 and
-dcmppi/Layout-v0 (`path=...`, `world=...`), one per task of `dcmppi.tasks`; every other keyword
-of `gymnasium.make` is a task kwarg (`agent`, its parameters, `noise`, `n_clusters`, ...).
+Ids: dcmppi/Forest-v0, dcmppi/Crowd-v0, dcmppi/Corridor-v0, dcmppi/Square-v0,
+dcmppi/Blocked-v0, dcmppi/Crossing-v0 and dcmppi/Layout-v0 (`path=...`, `world=...`), one per
+task of `dcmppi.tasks`; every other keyword of `gymnasium.make` is a task kwarg (`agent`, its
+parameters, `noise`, `n_clusters`, `behavior`, ...).
 
 - Observation: a Dict of the task's observation arrays (float64, unbounded; shapes from the
-  task's observation_spec, e.g. static_obstacles (M, 3)); `flatten_observation=True` gives
+  task's observation_spec, e.g. static_obstacles (M, 3), moving_velocity (L, 2): nan when
+  obstacle_measurement_std > 0); `flatten_observation=True` gives
   one flat Box instead, in the order of `env.unwrapped.dict_observation_space`
   (`gymnasium.spaces.unflatten` undoes it).
 - Action: a Box in [-1, 1] per control (float32), mapped affinely onto the task's action
@@ -51,6 +53,8 @@ from dcmppi.render.video import Renderer, scene_region
 IDS = {
     "dcmppi/Forest-v0": "forest",
     "dcmppi/Crowd-v0": "crowd",
+    "dcmppi/Corridor-v0": "corridor",
+    "dcmppi/Square-v0": "square",
     "dcmppi/Blocked-v0": "blocked",
     "dcmppi/Crossing-v0": "crossing",
     "dcmppi/Layout-v0": "layout",

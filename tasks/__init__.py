@@ -7,16 +7,19 @@ Every task takes `random`, `noise` (one of NOISE_PROFILES: "none" | "control" | 
 the robot's `agent` ("dubins", "unicycle", "holonomic") with its parameters (dubins: v, r_min;
 others: v_max, omega_max) and `robot_radius`, the control-noise variances `Sigma`, the
 process-noise stds `process_velocity_std` and `process_yaw_rate_std`, `time_limit` [s],
-`obstacle_measurement_std` [m] (noisy moving-obstacle positions, headings nan), plus its own
-kwargs.
+`obstacle_measurement_std` [m] (noisy moving-obstacle positions, headings and velocities nan),
+plus its own kwargs; tasks with pedestrians (`crowd`, `corridor`, `square`) take `behavior`
+(one of pedestrians.BEHAVIORS) and `robot_visible`.
 
-What lives here: `worlds` (the worlds as plain numpy: generators, obstacle motion, clearance,
-the map and crowd numbers), `navigation` (the plant `Physics` and the task `Navigation`:
-physics timestep, goal tolerance, noise profiles), one module per task family (`forest`,
-`crowd`, `two_valley`, `layout`), `robots` (agent -> actuators), `barn` (BARN's score).
+What lives here: `worlds` (the worlds as plain numpy: generators, obstacle motion, walls,
+clearance, the map, crowd and pedestrian numbers), `pedestrians` (walkers: social force, ORCA,
+...), `navigation` (the plant `Physics` and the task `Navigation`: physics timestep, goal
+tolerance, noise profiles), one module per task family (`forest`, `crowd`, `corridor`,
+`square`, `two_valley`, `layout`), `robots` (agent -> actuators), `barn` (BARN's score).
 
-May import MuJoCo, dm_control, numpy and, of the rest of dcmppi, only the robot models
-dcmppi.control.agents (with dcmppi.control.dynamics, their motion), dcmppi.control.defaults
+May import MuJoCo, dm_control, numpy, navground and, of the rest of dcmppi, only the robot
+models dcmppi.control.agents (with dcmppi.control.dynamics, their motion), the social force
+dcmppi.control.social (compiled, shared with the `social` predictor), dcmppi.control.defaults
 and dcmppi.control.validation: no controller, nothing of dcmppi.bench or dcmppi.render
 (tests/test_architecture.py). Installed, this folder is the subpackage dcmppi.tasks (see
 dcmppi/__init__.py).
@@ -32,10 +35,12 @@ from dm_control.utils import containers  # noqa: E402
 
 from dcmppi.control.agents import agent_param_names  # noqa: E402
 
+from .corridor import Corridor  # noqa: E402
 from .crowd import Crowd  # noqa: E402
 from .forest import Forest  # noqa: E402
 from .layout import Layout  # noqa: E402
 from .navigation import NOISE_PROFILES, Navigation, Physics, make_environment  # noqa: E402
+from .square import Square  # noqa: E402
 from .two_valley import Blocked, Crossing  # noqa: E402
 
 SUITE = containers.TaggedTasks()
@@ -65,9 +70,26 @@ _register(
 _register(
     "crowd",
     Crowd,
-    "100 moving Dubins cylinders reflecting off the walls (n_obstacles, speed/turn ranges).",
+    "100 moving Dubins cylinders reflecting off the walls (n_obstacles, speed/turn ranges; "
+    "behavior=social_force, orca, ...: walkers).",
     "dynamic",
     "benchmark",
+)
+_register(
+    "corridor",
+    Corridor,
+    "20 x 6 m corridor with walls, 12 social-force pedestrians both ways (n_pedestrians, "
+    "behavior, robot_visible).",
+    "dynamic",
+    "pedestrians",
+)
+_register(
+    "square",
+    Square,
+    "8 x 8 m square, 7 ORCA pedestrians at 1-2 m/s between random points, robot at 1 m/s "
+    "(n_pedestrians, behavior, robot_visible).",
+    "dynamic",
+    "pedestrians",
 )
 _register(
     "blocked",
@@ -145,6 +167,8 @@ __all__ = [
     "Physics",
     "Forest",
     "Crowd",
+    "Corridor",
+    "Square",
     "Blocked",
     "Crossing",
     "Layout",

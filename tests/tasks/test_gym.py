@@ -20,6 +20,8 @@ DATA = pathlib.Path(__file__).parent / "data"
 SMALL = {  # every id with small settings, and every agent somewhere
     "dcmppi/Forest-v0": {"n_clusters": 5, "agent": "holonomic"},
     "dcmppi/Crowd-v0": {"n_obstacles": 10},
+    "dcmppi/Corridor-v0": {"n_pedestrians": 4},
+    "dcmppi/Square-v0": {"n_pedestrians": 3, "agent": "unicycle"},
     "dcmppi/Blocked-v0": {},
     "dcmppi/Crossing-v0": {"agent": "unicycle", "noise": "control"},
     "dcmppi/Layout-v0": {"path": str(DATA / "barn_worlds_0_1.csv"), "world": 0},

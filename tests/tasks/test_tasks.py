@@ -19,6 +19,8 @@ BARN = str(DATA / "barn_worlds_0_1.csv")
 SMALL = {
     "forest": dict(n_clusters=10),
     "crowd": dict(n_obstacles=12),
+    "corridor": dict(n_pedestrians=4),
+    "square": dict(n_pedestrians=3),
     "blocked": dict(),
     "crossing": dict(),
     "layout": dict(path=BARN, world=0),
@@ -30,6 +32,7 @@ KEYS = (
     "goal",
     "static_obstacles",
     "moving_obstacles",
+    "moving_velocity",
     "obstacle_model",
     "map_bounds",
     "clearance",
@@ -82,7 +85,15 @@ for _name in SMALL:
 
 
 def test_registry_lists_every_task_with_a_description():
-    assert set(tasks.TASKS) == {"forest", "crowd", "blocked", "crossing", "layout"}
+    assert set(tasks.TASKS) == {
+        "forest",
+        "crowd",
+        "corridor",
+        "square",
+        "blocked",
+        "crossing",
+        "layout",
+    }
     assert all(isinstance(d, str) and d for d in tasks.TASKS.values())
 
 

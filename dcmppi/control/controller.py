@@ -24,6 +24,7 @@ from .diagnostics import Diagnostics
 from .normal import scaled_normal, standard_normal
 from .objective import Objective
 from .predictors import predictor_class
+from .predictors.base import INPUTS
 from .timer import NO_TIMER
 from .validation import positive
 
@@ -83,6 +84,12 @@ class Controller:
     ):
         prediction = prediction or self.default_prediction
         predictor = predictor_class(prediction)
+        unknown = [n for n in predictor.inputs if n not in INPUTS]
+        if unknown:
+            raise ValueError(
+                f"prediction {prediction!r} asks for inputs {unknown} that no controller gives; "
+                f"valid inputs: {', '.join(INPUTS)}"
+            )
         predictor_params = {n: other.pop(n) for n in predictor.own_params if n in other}
         self.agent = make_agent(agent, **other)
         self.robot_radius = positive("robot_radius", robot_radius, allow_zero=True)
@@ -166,7 +173,16 @@ class Controller:
 
     # --- one control step -------------------------------------------------------------------
 
-    def act(self, state, goal, static=None, moving=None, obstacle_model=None, bounds=None):
+    def act(
+        self,
+        state,
+        goal,
+        static=None,
+        moving=None,
+        obstacle_model=None,
+        bounds=None,
+        moving_velocity=None,
+    ):
         """Controls to apply now.
 
         Args:
@@ -177,6 +193,8 @@ class Controller:
           obstacle_model: (4,) v_mean, v_std, omega_mean, omega_std of the moving obstacles.
           bounds: (4,) xmin, ymin, xmax, ymax of the map, or None: with bounds a state whose
             centre leaves the map costs alpha, as a collision with the static map does.
+          moving_velocity: (L, 2) world-frame velocities of the rows of `moving` (nan rows: not
+            observed), or None; given to predictors whose `inputs` name "velocity".
         Returns:
           (nu,) controls within the agent's bounds (dubins: the turn rate omega).
         """
@@ -193,9 +211,13 @@ class Controller:
             self._grid = OccupancyGrid(static, self.robot_radius, self.resolution, bounds)
         if self.U is None:
             self.U = self.agent.project(self.agent.first_guess(state, goal, self.N), axis=1)
+        observed = moving
         moving = valid_cylinders(moving, "moving", columns=4, unobserved=2)
+        velocity = observed_velocity(moving_velocity, observed)
         with self.timer("prediction"):
-            prediction = self.predictor.predict(state, moving, obstacle_model, self.rng)
+            prediction = self.predictor.predict(
+                state, moving, obstacle_model, self.rng, **self._inputs(state, velocity)
+            )
             self.objective = Objective(goal, self._grid, self.alpha, prediction)
         self.diagnostics.prediction = prediction
         u = self._solve(state)
@@ -204,6 +226,15 @@ class Controller:
 
     def _solve(self, state):
         raise NotImplementedError
+
+    def _inputs(self, state, velocity):
+        """The keywords named in the predictor's `inputs` (predictors.base.INPUTS)."""
+        inputs = {}
+        if "velocity" in self.predictor.inputs:
+            inputs["velocity"] = velocity
+        if "robot_plan" in self.predictor.inputs:
+            inputs["robot_plan"] = self.agent.rollout_one(state, self.U, self.dt)
+        return inputs
 
     # --- building blocks --------------------------------------------------------------------
 
@@ -261,3 +292,28 @@ class Controller:
         self.U = np.concatenate([plan[1:], plan[-1:]])
         self.diagnostics.plan = plan
         return plan[0].copy()
+
+
+def observed_velocity(velocity, moving):
+    """The (L', 2) velocities of the rows of `moving` that are not padding (radius > 0), or None.
+
+    Args:
+      velocity: (L, 2) world-frame velocities (nan: not observed), or None.
+      moving: (L, 4) moving obstacles, already validated (costs.valid_cylinders), or None.
+    """
+    if velocity is None:
+        return None
+    velocity = np.asarray(velocity, dtype=float)
+    radius = np.zeros(0) if moving is None else np.asarray(moving, dtype=float)[:, 3]
+    if velocity.shape != (len(radius), 2):
+        raise ValueError(
+            f"moving_velocity must have shape ({len(radius)}, 2), one row per row of moving; "
+            f"got {velocity.shape}"
+        )
+    infinite = np.isinf(velocity).any(axis=1)
+    if infinite.any():
+        raise ValueError(
+            f"moving_velocity must be finite, or nan where not observed; infinite rows "
+            f"{np.flatnonzero(infinite)}"
+        )
+    return velocity[radius > 0]

@@ -8,6 +8,10 @@ import importlib
 import numpy as np
 
 _PREDICTORS: dict[str, type] = {}
+# what a controller gives a predictor on top of the observation, for the names in its `inputs`:
+# velocity (L, 2) the moving obstacles' observed velocities (nan rows: not observed) or None;
+# robot_plan (N + 1, 3) the robot's states along the planner's warm start from the current state
+INPUTS = ("velocity", "robot_plan")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -49,10 +53,13 @@ class Predictor:
     static and dynamic collision weights, P futures per obstacle, obstacle_margin added to
     every moving obstacle's radius [m]. A subclass lists its own keyword parameters in
     `own_params` and implements `predict`; `reset` forgets what it learnt in an episode.
+    `inputs` names the extra keywords its `predict` takes from the controller (INPUTS:
+    "velocity", "robot_plan"); without them predict is called with the four arguments alone.
     """
 
     name = None
     own_params: tuple[str, ...] = ()
+    inputs: tuple[str, ...] = ()
 
     def __init__(self, *, N, dt, robot_radius, max_speed, alpha, beta, P, obstacle_margin):
         self.N, self.dt, self.robot_radius = N, dt, robot_radius
@@ -75,6 +82,7 @@ class Predictor:
             moving obstacles now (heading nan: not observed; padding rows removed).
           obstacle_model: (4,) v_mean, v_std, omega_mean, omega_std of the obstacles, or None.
           rng: the planner's np.random.Generator (draw only from it: same seed, same plans).
+          velocity=, robot_plan=: where named in `inputs` (INPUTS).
         """
         raise NotImplementedError
 

@@ -59,19 +59,33 @@ class SampledFutures(Predictor):
         pose: (L, 1, 3) or (L, P, 3) start poses; speed, turn: (L, P) of the moving (L, 4).
         """
         radius = moving[:, 3] + self.obstacle_margin
-        reach = (self.max_speed + np.abs(speed)) * self.N * self.dt + self.robot_radius
-        reach = reach + radius[:, None]
-        gap = np.hypot(pose[..., 0] - state[0], pose[..., 1] - state[1])  # (L, 1) or (L, P)
-        near = (gap <= reach).any(axis=1)
+        near = self.within_reach(state, pose, speed, radius)
         n = int(near.sum())
         pose = np.broadcast_to(pose[near], (n, self.P, 3))
         futures = obstacle_futures(
             pose.reshape(-1, 3), speed[near].reshape(-1, 1), turn[near].reshape(-1, 1),
             self.N, self.dt,
         ).reshape(n, self.P, self.N + 1, 2)  # fmt: skip
+        return self.prediction(futures, radius[near])
+
+    def within_reach(self, state, start, speed, radius):
+        """(L,) whether any future of each obstacle can come within collision distance of a
+        rollout: |p_0 - start| <= (v + speed) N dt + robot_radius + radius for some future.
+
+        start: (L, 1, >=2) or (L, P, >=2) start positions (x, y first); speed: (L, P) bounds of
+        the futures' speeds; radius: (L,) obstacle radii with the margin.
+        """
+        reach = (self.max_speed + np.abs(speed)) * self.N * self.dt + self.robot_radius
+        reach = reach + radius[:, None]
+        gap = np.hypot(start[..., 0] - state[0], start[..., 1] - state[1])  # (L, 1) or (L, P)
+        return (gap <= reach).any(axis=1)
+
+    def prediction(self, futures, radius):
+        """The Prediction of futures (n, P, N + 1, 2) of n obstacles of radii (n,) (with the
+        margin): every future a track of weight beta / P."""
         return Prediction(
             futures.reshape(-1, self.N + 1, 2),
-            np.repeat(radius[near] + self.robot_radius, self.P),
+            np.repeat(radius + self.robot_radius, self.P),
             self.beta / self.P,
             futures,
             collision_cost=self.beta,

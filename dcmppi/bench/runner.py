@@ -266,12 +266,9 @@ def spl(success: bool, start, goal, tolerance: float, path_length: float) -> flo
 class FieldMetrics:
     """The field's crowd-navigation metrics of an episode, from the simulation's truth read at
     every control instant (the start and after every step): the robot's position and velocity
-    and the moving obstacles' positions, radii and velocities from `env.physics`, their
-    preferred speeds from `env.task.world` (`moving_pref_speed`; nan or absent: none, as
-    today's Dubins arcs).
-
-    Velocities come from `physics.moving_velocity()` (L, 2); a physics without it gets finite
-    differences of the positions over the control period (none at the start).
+    and the moving obstacles' positions, radii and velocities (`moving_velocity()`) from
+    `env.physics`, their preferred speeds from `env.task.world.moving_pref_speed` (nan: none,
+    as for today's Dubins arcs).
     """
 
     def __init__(self, env):
@@ -280,8 +277,8 @@ class FieldMetrics:
         self.robot_radius = physics.robot_radius
         n = len(world.moving)
         self.pedestrians = n > 0
-        pref = np.asarray(getattr(world, "moving_pref_speed", np.full(n, np.nan)), np.float64)
-        self.pref_speed = pref if pref.shape == (n,) and np.isfinite(pref).all() else None
+        pref = np.asarray(world.moving_pref_speed, dtype=np.float64)
+        self.pref_speed = pref if np.isfinite(pref).all() else None
         self.velocity: list[np.ndarray] = []  # the robot's planar velocity at each instant
         self.instants = 0
         self.min_gap = math.inf
@@ -289,7 +286,6 @@ class FieldMetrics:
         self.min_ttc = math.inf
         self.loss_sum = 0.0
         self.loss_count = 0
-        self._xy = None
         self.read(physics)
 
     def read(self, physics) -> None:
@@ -300,14 +296,12 @@ class FieldMetrics:
             return
         moving = physics.moving_obstacles()
         xy, radius = moving[:, :2], moving[:, 3]
-        velocity = self._moving_velocity(physics, xy)
+        velocity = physics.moving_velocity()
         rel = xy - physics.robot_pose()[:2]
         gap = np.hypot(rel[:, 0], rel[:, 1]) - radius - self.robot_radius
         self.instants += 1
         self.min_gap = min(self.min_gap, float(gap.min()))
         self.personal += bool((gap < PERSONAL_SPACE).any())
-        if velocity is None:
-            return
         ttc = time_to_collision(rel, velocity - robot_v, radius + self.robot_radius)
         self.min_ttc = min(self.min_ttc, float(ttc.min()))
         if self.pref_speed is not None:
@@ -316,20 +310,13 @@ class FieldMetrics:
             self.loss_sum += float(np.sum(1.0 - speed / self.pref_speed[near]))
             self.loss_count += int(near.sum())
 
-    def _moving_velocity(self, physics, xy) -> np.ndarray | None:
-        read = getattr(physics, "moving_velocity", None)
-        if read is not None:
-            return np.asarray(read(), dtype=np.float64)
-        previous, self._xy = self._xy, xy.copy()
-        return None if previous is None else (xy - previous) / self.dt
-
     def result(self) -> dict:
         """jerk_mean [m/s^3]; with moving obstacles (else None): min_ped_gap [m] (surface to
         surface), personal_space_share (share of the instants with a pedestrian within
         PERSONAL_SPACE), min_ttc [s] (inf: never on a collision course); ped_speed_loss: mean
         over instants and pedestrians within NEAR of 1 - speed / preferred speed (None without
         preferred speeds or with none near)."""
-        crowd = self.pedestrians and self.instants
+        crowd = self.pedestrians
         return {
             "jerk_mean": mean_jerk(self.velocity, self.dt),
             "min_ped_gap": self.min_gap if crowd else None,

@@ -50,10 +50,8 @@ class _Physics:
 
     robot_radius = 0.2
 
-    def __init__(self, velocities=True):
+    def __init__(self):
         self.k = 0
-        if velocities:
-            self.moving_velocity = lambda: np.array([[-1.2, 0.0], [0.0, 0.0]])
 
     def robot_pose(self):
         return np.zeros(3)
@@ -61,13 +59,18 @@ class _Physics:
     def robot_velocity(self):
         return np.zeros(3)
 
+    def moving_velocity(self):
+        return np.array([[-1.2, 0.0], [0.0, 0.0]])
+
     def moving_obstacles(self):
         x = 3.0 - 0.6 * self.k  # 3.0, 2.4, 1.8, 1.2, 0.6 at dt = 0.5
         return np.array([[x, 0.0, math.pi, 0.3], [0.0, 2.3, 0.0, 0.3]])
 
 
 def _env(physics, pref_speed=(1.5, 1.0), moving=2):
-    world = types.SimpleNamespace(moving=np.zeros((moving, 4)), moving_pref_speed=pref_speed)
+    world = types.SimpleNamespace(
+        moving=np.zeros((moving, 4)), moving_pref_speed=np.asarray(pref_speed)[:moving]
+    )
     return types.SimpleNamespace(
         physics=physics, task=types.SimpleNamespace(world=world), control_timestep=lambda: 0.5
     )
@@ -90,10 +93,6 @@ def test_field_metrics_on_a_synthetic_sequence():
     # within 2 m: A four times (1 - 1.2 / 1.5 = 0.2), B five times (standing: 1)
     assert r["ped_speed_loss"] == pytest.approx((4 * 0.2 + 5 * 1.0) / 9)
     assert r["jerk_mean"] == 0.0
-    # without the physics' velocities: finite differences, none at the start
-    r = _play(_Physics(velocities=False))
-    assert r["min_ttc"] == pytest.approx(0.1 / 1.2)
-    assert r["ped_speed_loss"] == pytest.approx((4 * 0.2 + 4 * 1.0) / 8)
     # today's arcs have no preferred speeds (nan) to lose; a world without moving obstacles
     # has no pedestrian metrics at all
     assert _play(_Physics(), pref_speed=np.full(2, np.nan))["ped_speed_loss"] is None

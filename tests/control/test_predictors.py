@@ -144,7 +144,7 @@ def test_a_registered_predictor_plans_and_bad_ones_are_named():
             dcmppi.make_controller("mppi", gap=2.0)
     finally:
         base._PREDICTORS.pop("ahead", None)
-    with pytest.raises(ValueError, match="unknown prediction 'crystal'; valid names: ekf"):
+    with pytest.raises(ValueError, match="unknown prediction 'crystal'; valid names: cv, ekf"):
         dcmppi.make_controller("dc", prediction="crystal")
     with pytest.raises(ValueError, match="no_such_module"):
         dcmppi.make_controller("dc", prediction="no_such_module:Thing")

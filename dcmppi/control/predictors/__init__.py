@@ -6,14 +6,17 @@ parameters (`own_params`) alongside the planner's. Built in:
 - "frozen": the obstacles stay where they are now, weight alpha (mppi, clustered, tube);
 - "prior": P sampled Dubins futures from the population Gaussian, weight beta / P (dc, paper
   Alg. 3);
-- "ekf": P futures drawn from a Gaussian-sum EKF of each obstacle (parameter measurement_std).
+- "ekf": P futures drawn from a Gaussian-sum EKF of each obstacle (parameter measurement_std);
+- "cv": P constant-velocity futures from the observed velocities (parameter cv_std);
+- "social": P social-force futures of the pedestrians, pushed by each other and the robot's plan
+  (parameter cv_std).
 A new predictor is a `Predictor` subclass registered by name (README, "Your own predictor").
 
 May import numpy, numba and dcmppi.control's kernels (dynamics, normal, social, validation);
 never a planner, MuJoCo or the tasks (a predictor sees observations, not the world).
 """
 
-from . import ekf, frozen, prior  # noqa: F401  (registers the built-in predictors)
+from . import cv, ekf, frozen, prior, social  # noqa: F401  (registers the built-in predictors)
 from .base import (
     Prediction,
     Predictor,

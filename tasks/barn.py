@@ -24,7 +24,7 @@ for the robot's own collision radius:
 
 The result is the length of a collision-free path, so it never undercuts the true shortest
 length; on a disc around which the true answer is known it exceeds it by less than 0.5 %
-(tests/test_barn.py).
+(tests/tasks/test_barn.py).
 """
 
 import functools

@@ -8,7 +8,7 @@ perturbation="time_varying")`, the defaults) and its closed loop on timing's for
 task's generator, seed 0), so both planners see the same numbers. Identical in the two:
 - dynamics: the exact Dubins arc per control period, a = omega dt / 2, x += v dt sinc(a)
   cos(theta + a), y += v dt sinc(a) sin(theta + a), theta += 2 a, v = 1 m/s, dt = 0.1 s
-  (`PeerProblem.dynamics`, equal to our agent's step to 1e-9, tests/test_peer.py);
+  (`PeerProblem.dynamics`, equal to our agent's step to 1e-9, tests/bench/test_peer.py);
 - cost of a state: distance to the goal + alpha (1000) x the occupancy of the static cost map,
   looked up in our OccupancyGrid's boolean grid (robot radius 0.5 m, 0.1 m cells, same cell
   indexing: index = int(clip((x - origin) / resolution, 0, last cell))), not a disc test, so

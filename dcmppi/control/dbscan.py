@@ -28,7 +28,7 @@ those inputs (tiny n, or more than 15 features) go to sklearn itself.
 
 The kernels compile at the first call (about 8 s) and are cached on disk by numba
 (`cache=True`: __pycache__ next to this file, or NUMBA_CACHE_DIR), so later processes load them.
-tests/test_dbscan.py checks the labels against sklearn on many random inputs.
+tests/control/test_dbscan.py checks the labels against sklearn on many random inputs.
 """
 
 import numbers

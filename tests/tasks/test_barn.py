@@ -6,7 +6,6 @@ import sqlite3
 
 import numpy as np
 import pytest
-from dcmppi.tasks import barn, layout
 
 from dcmppi import tasks
 from dcmppi.bench.execution import run_experiment
@@ -15,6 +14,7 @@ from dcmppi.bench.report import score_table, write_report
 from dcmppi.bench.results import SCHEMA_VERSION, ResultsDB
 from dcmppi.bench.runner import EpisodeSpec, check_specs, make_env
 from dcmppi.bench.stats import bootstrap_mean, paired_scores, summarize
+from dcmppi.tasks import barn, layout
 
 BARN = pathlib.Path(__file__).parent / "data" / "barn_worlds_0_1.csv"
 BOUNDS = (-2.0, -4.0, 12.0, 4.0)

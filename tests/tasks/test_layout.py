@@ -6,9 +6,9 @@ import pathlib
 
 import numpy as np
 import pytest
-from dcmppi.tasks import layout
 
 from dcmppi import tasks
+from dcmppi.tasks import layout
 
 BARN = pathlib.Path(__file__).parent / "data" / "barn_worlds_0_1.csv"
 

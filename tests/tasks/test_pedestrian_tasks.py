@@ -2,9 +2,9 @@
 
 import numpy as np
 import pytest
-from dcmppi.tasks import navigation, pedestrians, worlds
 
 from dcmppi import tasks
+from dcmppi.tasks import navigation, pedestrians, worlds
 
 GENERATORS = {
     "corridor": worlds.generate_corridor,

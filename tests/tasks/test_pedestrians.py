@@ -3,10 +3,10 @@ each other, determinism, the speed cap, the substeps, bad input; every behaviour
 
 import numpy as np
 import pytest
-from dcmppi.tasks import pedestrians
-from dcmppi.tasks.pedestrians import MAX_SPEED_FACTOR, Pedestrians
 
 from dcmppi.control import social
+from dcmppi.tasks import pedestrians
+from dcmppi.tasks.pedestrians import MAX_SPEED_FACTOR, Pedestrians
 
 pytest.importorskip("navground.core")
 

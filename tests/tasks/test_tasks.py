@@ -6,11 +6,11 @@ import pathlib
 import numpy as np
 import pytest
 from absl.testing import absltest
-from dcmppi.tasks import navigation, worlds
 from dm_env import test_utils
 
 from dcmppi import tasks
 from dcmppi.control import defaults
+from dcmppi.tasks import navigation, worlds
 
 DATA = pathlib.Path(__file__).parent / "data"
 BARN = str(DATA / "barn_worlds_0_1.csv")

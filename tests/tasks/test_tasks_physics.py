@@ -2,10 +2,10 @@
 
 import numpy as np
 import pytest
-from dcmppi.tasks import navigation, worlds
 
 from dcmppi import tasks
 from dcmppi.control import defaults
+from dcmppi.tasks import navigation, worlds
 
 
 def drive(env, omega=0.0, steps=10_000):

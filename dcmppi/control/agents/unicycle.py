@@ -21,7 +21,7 @@ class Unicycle(Agent):
     default_Sigma = (defaults.SIGMA_VELOCITY, defaults.SIGMA)
     # With constant (and mixed) perturbations the unicycle stops in front of an obstacle: every
     # sample is one arc held for 5 s, none of which turns away and then drives on, and with the
-    # speed at a bound the importance term favours slowing down (tests/test_controllers.py).
+    # speed at a bound the importance term favours slowing down (tests/control/test_controllers.py).
     default_perturbation = "time_varying"
 
     def __init__(self, v_max=defaults.UNICYCLE_V_MAX, omega_max=defaults.UNICYCLE_OMEGA_MAX):

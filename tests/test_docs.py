@@ -2,10 +2,12 @@
 its commands run; "Your own agent"; "Your own predictor"), CI runs the README's test command,
 and the links between README.md and docs/*.md reach existing files and headings."""
 
+import json
 import os
 import pathlib
 import re
 import shlex
+import sqlite3
 import subprocess
 import sys
 
@@ -116,6 +118,50 @@ def test_your_own_predictor_section_runs():
         assert drive(prediction="frozen")[0] < touching
     finally:
         predictors.base._PREDICTORS.pop("straight", None)
+
+
+@pytest.mark.slow
+def test_your_own_predictor_plans_in_run_and_bench(tmp_path):
+    """The README's predictor saved as my_predictor.py, named module:Class as the README says:
+    `dcmppi run` plans with it and `dcmppi bench` records it beside frozen obstacles."""
+    ((_, code),) = blocks(section("### Your own predictor"))
+    (tmp_path / "my_predictor.py").write_text(code.split("\n\nctrl = ")[0] + "\n")
+    (tmp_path / "exp.toml").write_text(
+        'task = "crossing"\nnoises = ["none"]\nepisodes = 2\nbase_seed = 1\n'
+        'reference = "frozen"\ntask_params = { agent = "holonomic" }\n'
+        "controller_params = { K = 64 }\n"
+        '[[rows]]\nlabel = "frozen"\ncontroller = "mppi"\n'
+        '[[rows]]\nlabel = "straight"\ncontroller = "mppi"\n'
+        'params = { prediction = "my_predictor:Straight", speed = 1.2 }\n'
+    )
+    env = {**os.environ, "PATH": f"{pathlib.Path(sys.executable).parent}{os.pathsep}"
+           f"{os.environ['PATH']}"}  # fmt: skip
+    paths = {}
+    for prediction in ("my_predictor:Straight", "frozen"):
+        run = subprocess.run(
+            ["dcmppi", "run", "--task", "crossing", "--controller", "mppi", "--task-param",
+             "agent=holonomic", "--param", f"prediction={prediction}", "--param", "K=64",
+             "--json", *(["--param", "speed=1.2"] if ":" in prediction else [])],
+            cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300,
+        )  # fmt: skip
+        assert run.returncode == 0, run.stderr
+        paths[prediction] = json.loads(run.stdout)["path_length"]
+    assert paths["my_predictor:Straight"] != paths["frozen"]  # it planned with the predictor
+    bench = subprocess.run(
+        ["dcmppi", "bench", "--experiment", "exp.toml", "--db", "r.db", "--workers", "2"],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert bench.returncode == 0, bench.stderr
+    rows = (
+        sqlite3.connect(tmp_path / "r.db")
+        .execute("SELECT label, status, params FROM episodes ORDER BY label, env_index")
+        .fetchall()
+    )
+    assert [(label, status) for label, status, _ in rows] == [
+        ("frozen", "ok"), ("frozen", "ok"), ("straight", "ok"), ("straight", "ok")
+    ]  # fmt: skip
+    straight = [params for label, _, params in rows if label == "straight"]
+    assert all('"my_predictor:Straight"' in params for params in straight)
 
 
 def ci_test_command():

@@ -13,7 +13,7 @@ frozen obstacles with w = alpha, or P sampled futures per obstacle with w = beta
 
 import numpy as np
 
-from .costs import OccupancyGrid, TrackIndex, goal_distance, static_costs
+from .costs import TrackIndex, goal_distance, static_costs
 from .predictors import Prediction
 
 NO_TRACKS = TrackIndex(np.zeros((0, 1, 2)), np.zeros(0))
@@ -23,19 +23,18 @@ class Objective:
     """c summed over each rollout's states, for one control step.
 
     Args:
-      goal: (2,) x, y. grid: OccupancyGrid of the static map. alpha: static collision weight.
+      goal: (2,) float x, y. grid: OccupancyGrid of the static map. alpha: static collision
+        weight.
       prediction: the step's Prediction of the moving obstacles.
     """
 
     def __init__(self, goal, grid, alpha, prediction):
-        if not isinstance(grid, OccupancyGrid):
-            raise TypeError(f"grid must be an OccupancyGrid; got {type(grid).__name__}")
         if not isinstance(prediction, Prediction):
             raise TypeError(
                 f"a predictor must return a dcmppi.control.Prediction; got "
                 f"{type(prediction).__name__}"
             )
-        self.goal = np.asarray(goal, dtype=float)
+        self.goal = goal
         self.grid = grid
         self.alpha = alpha
         self.prediction = prediction

@@ -65,6 +65,7 @@ class Predictor:
         self.N, self.dt, self.robot_radius = N, dt, robot_radius
         self.max_speed, self.alpha, self.beta, self.P = max_speed, alpha, beta, P
         self.obstacle_margin = obstacle_margin
+        self._none = None
 
     @property
     def params(self) -> dict:
@@ -87,7 +88,16 @@ class Predictor:
         raise NotImplementedError
 
     def none(self) -> Prediction:
-        """No track (no moving obstacle near)."""
+        """No track (no moving obstacle near): one read-only Prediction, made once."""
+        if self._none is None:
+            self._none = self.empty()
+            for array in (self._none.tracks, self._none.distance, self._none.futures):
+                if array is not None:
+                    array.flags.writeable = False
+        return self._none
+
+    def empty(self) -> Prediction:
+        """A new Prediction without tracks (what `none` returns)."""
         return Prediction(np.zeros((0, self.N + 1, 2)), np.zeros(0), self.alpha)
 
 

@@ -91,7 +91,7 @@ class SampledFutures(Predictor):
             collision_cost=self.beta,
         )
 
-    def none(self):
+    def empty(self):
         return Prediction(
             np.zeros((0, self.N + 1, 2)),
             np.zeros(0),

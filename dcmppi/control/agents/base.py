@@ -21,9 +21,10 @@ A new agent is a subclass registered by name (see README, "Your own agent").
 from __future__ import annotations
 
 import math
-import numbers
 
 import numpy as np
+
+from ..validation import positive
 
 _AGENTS: dict[str, type] = {}
 
@@ -79,15 +80,6 @@ def agent_param_names() -> list[str]:
     for name in agent_names():
         names += [p for p in _AGENTS[name].param_names if p not in names]
     return names
-
-
-def positive(name, value, allow_zero=False):
-    """`value` as a float, or a ValueError naming `name` when it is not a finite number > 0."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-        raise ValueError(f"{name} must be a finite number; got {value!r}")
-    if value < 0 or (value == 0 and not allow_zero):
-        raise ValueError(f"{name} must be {'>= 0' if allow_zero else '> 0'}; got {value!r}")
-    return float(value)
 
 
 class Agent:

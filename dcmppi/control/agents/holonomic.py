@@ -11,7 +11,8 @@ import numpy as np
 
 from .. import defaults
 from ..dynamics import _wrap
-from .base import Agent, positive, register_agent
+from ..validation import positive
+from .base import Agent, register_agent
 
 
 @register_agent("holonomic")

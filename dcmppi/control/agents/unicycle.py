@@ -8,7 +8,8 @@ import numpy as np
 
 from .. import defaults
 from ..dynamics import arc_rollout, dubins_step, sinc
-from .base import Agent, positive, register_agent
+from ..validation import positive
+from .base import Agent, register_agent
 from .dubins import arc_jacobians, jacobian_terms
 
 

@@ -234,9 +234,10 @@ class ClusteredMPPI(MPPI):
         self.record(eps, states, J, S)
         d = self.diagnostics
         d.labels, d.features = labels, features
+        lam = d.lambda_ = self.temperature(S)  # one lambda, over all samples, for every cluster
         if labels.max(initial=-1) < 0:  # no cluster: Alg. 1 over all samples
             with timer("update"):
-                plan, w = mppi_update(self.U, eps, S, self.lambda_)
+                plan, w = mppi_update(self.U, eps, S, lam)
             d.chosen, d.cluster_controls = -1, np.zeros((0, self.N, self.nu))
             d.cluster_costs = np.zeros(0)
         else:
@@ -244,9 +245,8 @@ class ClusteredMPPI(MPPI):
             scalar = raw is not None and agent.nu == 1 and agent.lower[0] == -agent.upper[0]
             with timer("cluster updates"):
                 U, w = cluster_updates(
-                    self.U, eps, S, self.lambda_, labels, raw[0] if scalar else None,
-                    agent.upper[0],
-                )  # fmt: skip
+                    self.U, eps, S, lam, labels, raw[0] if scalar else None, agent.upper[0]
+                )
             _, Jm = self.evaluate(state, U.transpose(1, 2, 0))
             best = int(np.argmin(Jm))
             plan, w = U[best], np.where(labels == best, w, 0.0)

@@ -6,7 +6,7 @@
 
 Every controller accepts the shared parameters (defaults from dcmppi.control.defaults,
 explained in docs/design.md): agent and its parameters (dubins: v, r_min; unicycle and holonomic:
-v_max, omega_max), robot_radius, dt, K, N, lambda_, Sigma, gamma, alpha, beta, P, seed,
+v_max, omega_max), robot_radius, dt, K, N, lambda_, ess_target, Sigma, gamma, alpha, beta, P, seed,
 perturbation, resolution, obstacle_margin, prediction and its predictor's parameters, plus its
 own. Each step, the predictor turns the moving obstacles into tracks, the step's Objective
 scores rollouts, and the subclass's `_solve` plans with them.
@@ -25,10 +25,12 @@ from .normal import scaled_normal, standard_normal
 from .objective import Objective
 from .predictors import predictor_class
 from .predictors.base import INPUTS
+from .temperature import COLLISION_NATS, ESS_TARGET, choose_lambda
 from .timer import NO_TIMER
 from .validation import positive
 
 PERTURBATIONS = ("constant", "time_varying", "mixed")
+AUTO = "auto"  # lambda_ chosen each step (dcmppi.control.temperature)
 MAX_COORDINATE = 1e6  # |state| and |goal| bound: far beyond, squared distances overflow
 
 
@@ -39,10 +41,14 @@ class Controller:
       agent: "dubins" (default), "unicycle", "holonomic", another registered name, or an Agent
         instance; its parameters (dubins: v, r_min; others: v_max, omega_max) go alongside.
       robot_radius: collision radius [m]. dt: control period [s].
-      K: samples. N: horizon steps. lambda_: cost sensitivity.
+      K: samples. N: horizon steps. lambda_: cost sensitivity, a number > 0 or "auto": chosen
+        each step so that the weights' effective sample size is near ess_target x K, at most
+        alpha / 10 (dcmppi.control.temperature; the importance term then keeps lambda = 1).
+      ess_target: with lambda_="auto", the target ESS as a share of K, in (0, 1].
       Sigma: sampling variance of each control, in its own units (default: the agent's, e.g.
         0.1 (rad/s)^2 for a turn rate, 1 (m/s)^2 for a velocity); a number for 1 control.
-      gamma: weight of the importance term gamma lambda sum_i u_i^T Sigma^-1 eps_i (1: paper).
+      gamma: weight of the importance term gamma lambda sum_i u_i^T Sigma^-1 eps_i (1: paper;
+        lambda = 1 there with lambda_="auto").
       alpha: static collision weight. beta: dynamic collision weight (sampled futures).
       P: futures per moving obstacle. seed: int, None or np.random.Generator.
       perturbation: "constant" (one eps per sample over the horizon, paper Sec. IV-A),
@@ -70,6 +76,7 @@ class Controller:
         K=defaults.K,
         N=defaults.N,
         lambda_=defaults.LAMBDA,
+        ess_target=ESS_TARGET,
         Sigma=None,
         gamma=defaults.GAMMA,
         alpha=defaults.ALPHA,
@@ -96,7 +103,10 @@ class Controller:
         self.dt = positive("dt", dt)
         self.K = positive("K", K, integer=True)
         self.N = positive("N", N, integer=True)
-        self.lambda_ = positive("lambda_", lambda_)
+        self.lambda_ = temperature_param(lambda_)
+        self.ess_target = positive("ess_target", ess_target)
+        if self.ess_target > 1.0:
+            raise ValueError(f"ess_target must be in (0, 1] (a share of K); got {ess_target!r}")
         self.Sigma = self.agent.variances(Sigma)
         self.gamma = positive("gamma", gamma, allow_zero=True)
         self.alpha = positive("alpha", alpha, allow_zero=True)
@@ -118,8 +128,10 @@ class Controller:
             obstacle_margin=self.obstacle_margin, **predictor_params,
         )  # fmt: skip
         self.sigma = np.sqrt(self.Sigma)
-        # gamma lambda Sigma^-1 of the importance term, per control
-        self._importance_weight = (self.gamma * self.lambda_) / self.Sigma
+        # gamma lambda Sigma^-1 of the importance term, per control (lambda = 1 with "auto")
+        lam = 1.0 if self.lambda_ == AUTO else self.lambda_
+        self._importance_weight = (self.gamma * lam) / self.Sigma
+        self._lambda_max = self.alpha / COLLISION_NATS if self.alpha else np.inf
         self._grid = None
         self.objective = None
         self.timer = NO_TIMER
@@ -127,8 +139,9 @@ class Controller:
         self.reset(seed)
 
     own_params = (
-        "agent", "robot_radius", "dt", "K", "N", "lambda_", "Sigma", "gamma", "alpha", "beta",
-        "P", "seed", "perturbation", "resolution", "obstacle_margin", "prediction",
+        "agent", "robot_radius", "dt", "K", "N", "lambda_", "ess_target", "Sigma", "gamma",
+        "alpha", "beta", "P", "seed", "perturbation", "resolution", "obstacle_margin",
+        "prediction",
     )  # fmt: skip
 
     @classmethod
@@ -168,6 +181,7 @@ class Controller:
             s = self.seed
             self.rng = s if isinstance(s, np.random.Generator) else np.random.default_rng(s)
         self.U = None  # set from the agent's first guess at the first step
+        self._last_lambda = None  # "auto": where the next step's search starts
         self.predictor.reset()
         self.diagnostics = self.diagnostics_class()
 
@@ -277,12 +291,24 @@ class Controller:
         return (states, *J) if moving else (states, J)
 
     def importance(self, U0, eps):
-        """gamma lambda sum_i u_i^T Sigma^-1 eps_i for each sample (K,)."""
+        """gamma lambda sum_i u_i^T Sigma^-1 eps_i for each sample (K,) (lambda = 1 with
+        lambda_="auto")."""
         w = self._importance_weight
         S = w[0] * (U0[:, 0] @ eps[:, 0])
         for j in range(1, self.nu):
             S += w[j] * (U0[:, j] @ eps[:, j])
         return S
+
+    def temperature(self, S):
+        """The step's lambda for the costs S (K,): lambda_, or with "auto" the one whose weights
+        exp(-(S - min S) / lambda) have an ESS near ess_target x K, at most alpha / 10 (searched
+        from the last step's)."""
+        if self.lambda_ != AUTO:
+            return self.lambda_
+        with self.timer("temperature"):
+            lam = choose_lambda(S, self.ess_target, self._last_lambda, self._lambda_max)
+        self._last_lambda = lam
+        return lam
 
     def finish(self, plan):
         """Apply the plan's first controls and warm-start the next step by shifting it.
@@ -292,6 +318,16 @@ class Controller:
         self.U = np.concatenate([plan[1:], plan[-1:]])
         self.diagnostics.plan = plan
         return plan[0].copy()
+
+
+def temperature_param(value):
+    """lambda_ as a float, or "auto"; a ValueError for anything else."""
+    if isinstance(value, str) and value == AUTO:
+        return AUTO
+    try:
+        return positive("lambda_", value)
+    except ValueError:
+        raise ValueError(f"lambda_ must be a number > 0 or 'auto'; got {value!r}") from None
 
 
 def observed_velocity(velocity, moving):

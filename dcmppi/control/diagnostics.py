@@ -17,6 +17,7 @@ class Diagnostics:
     J: (K,) costs; S: (K,) costs plus the importance term.
     weights: (K,) weights that produced the plan (zero outside the chosen cluster).
     ess: effective sample size 1 / sum(weights^2).
+    lambda_: the temperature of the weights (lambda_, or the step's choice with "auto").
     warm_start: (N, nu) the reference controls U0 the step started from (eps is relative to it).
     plan: (N, nu) the optimised control sequence; action: (nu,) the applied controls.
     prediction: the step's dcmppi.control.Prediction of the moving obstacles (tracks, and the
@@ -29,6 +30,7 @@ class Diagnostics:
     S: np.ndarray = None
     weights: np.ndarray = None
     ess: float = float("nan")
+    lambda_: float = float("nan")
     warm_start: np.ndarray = None
     plan: np.ndarray = None
     action: np.ndarray = None

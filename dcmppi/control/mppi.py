@@ -36,7 +36,8 @@ class MPPI(Controller):
     """Model Predictive Path Integral control, paper Alg. 1 (see Controller for parameters).
 
     Each step: sample K perturbations, roll out clip(U0 + eps), S = J + importance term,
-    U = U0 + sum w eps, apply U[0], shift U as the next warm start.
+    U = U0 + sum w eps (w at the step's lambda, Controller.temperature), apply U[0], shift U as
+    the next warm start.
     """
 
     def rollouts(self, state, sums=False, moving=False):
@@ -60,8 +61,10 @@ class MPPI(Controller):
 
     def _solve(self, state):
         eps, states, J, S = self.rollouts(state)
+        lam = self.temperature(S)
         with self.timer("update"):
-            plan, w = mppi_update(self.U, eps, S, self.lambda_)
+            plan, w = mppi_update(self.U, eps, S, lam)
         self.record(eps, states, J, S)
-        self.diagnostics.weights, self.diagnostics.ess = w, effective_sample_size(w)
+        d = self.diagnostics
+        d.weights, d.ess, d.lambda_ = w, effective_sample_size(w), lam
         return self.finish(plan)

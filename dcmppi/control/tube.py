@@ -142,11 +142,13 @@ class TubeMPPI(MPPI):
         states, J, S, reset = self._two_solves(z, state, u, eps)
         if reset:
             z = state.copy()
+        lam = self.temperature(S)  # the chosen solve's (S does not depend on it)
         with timer("update"):
-            plan, w = mppi_update(self.U, eps, S, self.lambda_)
+            plan, w = mppi_update(self.U, eps, S, lam)
         self.record(eps, states, J, S)
         d = self.diagnostics
-        d.weights, d.ess, d.nominal_reset = w, effective_sample_size(w), bool(reset)
+        d.weights, d.ess, d.lambda_ = w, effective_sample_size(w), lam
+        d.nominal_reset = bool(reset)
         d.nominal_deviation = deviation
         feedback = self._feedback(z, state, plan)
         action = self.agent.project((plan[0] - feedback)[:, None], axis=0)[:, 0]

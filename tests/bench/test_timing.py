@@ -6,6 +6,7 @@ import subprocess
 import sys
 import time
 
+import numpy as np
 import pytest
 
 from dcmppi.bench import timing
@@ -29,6 +30,53 @@ def test_every_case_reports_a_ratio_to_its_reference_and_a_target(capsys, monkey
 def test_an_unknown_problem_names_the_valid_ones():
     with pytest.raises(ValueError, match="unknown timing problem 'desert'; valid: forest, "):
         loop.ClosedLoop("mppi", "desert", 5)
+
+
+def test_the_pedestrian_problems_have_their_rows_and_targets(capsys, monkeypatch):
+    rows = {(c.label, c.problem): c for c in cases.CASES}
+    corridor = [rows[label, "corridor"] for label in ("mppi", "dc", "dc-cv", "dc-social")]
+    assert [c.params.get("prediction") for c in corridor] == [None, None, "cv", "social"]
+    assert all(c.params["agent"] == "holonomic" and c.params["beta"] == 100.0 for c in corridor)
+    assert rows["dc-social", "corridor"].target_ms == 5.0
+    selected = (rows["mppi", "crowd-sf"], rows["dc-social", "crowd-sf"])
+    monkeypatch.setattr(cases, "CASES", selected)
+    assert timing.main(["--steps", "6", "--json"]) == 0
+    mppi, social = json.loads(capsys.readouterr().out)["results"]
+    assert social["reference"] == "mppi" and social["target"] == "<= 20.0 ms"
+    assert social["ratio"] == social["median_ms"] / mppi["median_ms"]  # crowd-sf's own mppi
+
+
+def test_the_corridor_loop_walks_its_pedestrians_and_passes_their_velocities(monkeypatch):
+    calls = []
+
+    def recording(name, **params):  # the real controller, its act's arguments recorded
+        ctrl = make_controller(name, **params)
+        act = ctrl.act
+
+        def record(*args, **kwargs):
+            calls.append((args, kwargs))
+            return act(*args, **kwargs)
+
+        ctrl.act = record
+        return ctrl
+
+    monkeypatch.setattr(loop, "make_controller", recording)
+    closed = loop.ClosedLoop("mppi", "corridor", 6, **cases.WALK)
+    assert closed.ctrl.robot_radius == 0.3  # the corridor task's robot
+    for _ in range(6):
+        closed.step()
+    moving = np.array([args[3] for args, _ in calls])  # (steps, 12, 4)
+    velocity = np.array([kwargs["moving_velocity"] for _, kwargs in calls])  # (steps, 12, 2)
+    assert moving.shape == (6, 12, 4) and velocity.shape == (6, 12, 2)
+    assert all(args[5] is closed.bounds for args, _ in calls)
+    assert (moving[:, :, 3] == 0.3).all()
+    speed = np.hypot(velocity[..., 0], velocity[..., 1])
+    assert (speed > 0.3).all()  # everyone walks ...
+    heading = np.arctan2(velocity[..., 1], velocity[..., 0])
+    assert np.allclose(np.exp(1j * moving[..., 2]), np.exp(1j * heading))  # ... as observed
+    # each step moves them by dt x the velocity observed after it (semi-implicit Euler)
+    step = np.diff(moving[..., :2], axis=0)
+    assert np.allclose(step, closed.ctrl.dt * velocity[1:])
 
 
 class _Parts:

@@ -13,6 +13,12 @@ defaults K = 500, N = 50); every act() sees what the task would observe, map bou
   the feedback is zero.
 - crowd: the crowd task's world, 100 moving cylinders moving as in the task (exact Dubins arcs,
   reflecting off the walls); `dc` with P = 25 (and the others for reference).
+- corridor, crowd-sf (issue 24): the corridor task's world (12 social-force pedestrians, its
+  walls as static cylinder rows) and the crowd task's with behavior "social_force" (100
+  walkers), the pedestrians (tasks.pedestrians.Pedestrians) built and advanced once per control
+  period as the task does, act() given their observed velocities (moving_velocity) too; the
+  holonomic robot with the pedestrian experiments' shared parameters, `dc` with each predictor
+  (prior, cv, social) and `mppi` for reference.
 BLAS and OpenMP pools are limited to one thread; the figures are for one core. The cases of a
 problem run interleaved in blocks of consecutive steps, so load changes on a shared machine hit
 them alike.
@@ -21,7 +27,8 @@ Modules: `worlds` (the problems), `cases` (the table's rows and the variants), `
 closed loop, interleaved timing), `profile` (`--profile`, through the controllers' timer hook),
 `fingerprint` (`--fingerprint`), `cli` (the options and the table). Only the entry points (`main`,
 `python -m dcmppi.bench.timing`) tune malloc for the process. May import dcmppi.control, the
-tasks' world generators (dcmppi.tasks.worlds) and dcmppi.bench.peer; nothing imports it but the
+tasks' world generators (dcmppi.tasks.worlds), their pedestrians and task classes (for the
+pedestrian problems' worlds and next goals) and dcmppi.bench.peer; nothing imports it but the
 command line.
 """
 

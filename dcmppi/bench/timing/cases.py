@@ -18,6 +18,9 @@ class Case:
 
 
 TV, MIXED = {"perturbation": "time_varying"}, {"perturbation": "mixed"}
+# the pedestrian experiments' shared parameters (those of `dynamic`): the holonomic robot
+WALK = {"agent": "holonomic", **MIXED, "Sigma": [1.0, 1.0, 0.1], "gamma": 1.0, "beta": 100.0}
+CV, SOCIAL = {**WALK, "prediction": "cv"}, {**WALK, "prediction": "social"}
 CASES = (
     Case("mppi", "mppi", "forest", target_ms=0.2),
     Case("mppi tv", "mppi", "forest", TV, target_ms=0.3),
@@ -66,6 +69,13 @@ CASES = (
         {"agent": "holonomic", **MIXED, "Sigma": [1.0, 1.0, 0.1]},
         target_ms=2.0,
     ),
+    # pedestrians (issue 24): 12 in the corridor, 100 walkers in the crowd
+    Case("mppi", "mppi", "corridor", WALK),
+    Case("dc", "dc", "corridor", WALK),
+    Case("dc-cv", "dc", "corridor", CV),
+    Case("dc-social", "dc", "corridor", SOCIAL, target_ms=5.0),
+    Case("mppi", "mppi", "crowd-sf", WALK),
+    Case("dc-social", "dc", "crowd-sf", SOCIAL, target_ms=20.0),
 )
 
 # `--fingerprint`: every row of the table and the variants that take other code paths
@@ -95,4 +105,5 @@ PROFILE_CASES = (
     # the holonomic robot's default (mixed) beside the car's: 3 x the normals per step
     Case("mppi mixed", "mppi", "forest", MIXED),
     Case("mppi holonomic mixed", "mppi", "forest", {"agent": "holonomic", **MIXED}),
+    Case("dc-social", "dc", "corridor", SOCIAL),  # the social predictor's share of a step
 )

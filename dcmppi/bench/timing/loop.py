@@ -6,9 +6,18 @@ import numpy as np
 
 from dcmppi.control import make_controller
 
-from .worlds import moving_crowd, observed, push, pushed, world
+from .worlds import (
+    PEDESTRIANS,
+    moving_crowd,
+    observed,
+    pedestrian_task,
+    push,
+    pushed,
+    walking_crowd,
+    world,
+)
 
-PROBLEMS = ("forest", "forest+push", "crowd")
+PROBLEMS = ("forest", "forest+push", "crowd", *PEDESTRIANS)
 SKIP = 3  # first steps left out of the figures: they build the cost map and load the kernels
 BLOCK = 10  # consecutive steps of one case before the next case's
 
@@ -16,7 +25,10 @@ BLOCK = 10  # consecutive steps of one case before the next case's
 class ClosedLoop:
     """One controller driving the analytic model on a timing problem, one timed step at a time.
 
-    Its act() sees what the task would observe (static, moving, obstacle model, map bounds).
+    Its act() sees what the task would observe (static, moving, obstacle model, map bounds and,
+    among pedestrians, moving_velocity (L, 2); else None). On a pedestrian problem the robot
+    has the task's radius and the pedestrians advance once per step, from the robot's position
+    at the step's start and its velocity over the step before.
 
     Args:
       name: controller name; params: its parameters (seed = 0).
@@ -29,13 +41,25 @@ class ClosedLoop:
             raise ValueError(f"unknown timing problem {problem!r}; valid: {', '.join(PROBLEMS)}")
         if problem == "forest+push":
             params = {"reset_threshold": 0.0, **params}
+        walking = problem in PEDESTRIANS
+        if walking:
+            task, random = pedestrian_task(problem)
+            w = task.world
+            params = {"robot_radius": task.robot_radius, **params}  # the task's robot
+        else:
+            w = world(problem.split("+")[0])
         self.ctrl = make_controller(name, seed=0, **params)
         self.offsets = push(steps) if problem == "forest+push" else None
-        w = world(problem.split("+")[0])
         self.state, self.goal = np.array(w.start), w.goal
         self.static, self.bounds = w.static, w.map_bounds
         self.model, self.moving, self.radius = w.obstacle_model, w.moving, w.moving[:, 3]
-        self.crowd = moving_crowd(w, self.ctrl.dt) if len(w.moving) else None
+        if walking:
+            self.crowd = walking_crowd(task, random, self.ctrl.dt)
+            self.velocity = self.crowd.velocity.copy()  # moving_velocity (L, 2), observed
+            self.robot_velocity = np.zeros(2)  # the robot's (vx, vy) at the step's start
+        else:
+            self.crowd = moving_crowd(w, self.ctrl.dt) if len(w.moving) else None
+            self.velocity = None
         self.times = []
 
     def step(self):
@@ -43,13 +67,22 @@ class ClosedLoop:
         action (nu,)."""
         ctrl = self.ctrl
         t0 = time.perf_counter()
-        u = ctrl.act(self.state, self.goal, self.static, self.moving, self.model, self.bounds)
+        u = ctrl.act(
+            self.state, self.goal, self.static, self.moving, self.model, self.bounds,
+            moving_velocity=self.velocity,
+        )  # fmt: skip
         self.times.append(time.perf_counter() - t0)
+        start = self.state
         self.state = ctrl.agent.step(self.state, u, ctrl.dt)
         if self.offsets is not None:
             self.state = pushed(self.state, self.offsets[len(self.times) - 1])
-        if self.crowd is not None:
+        if self.velocity is not None:  # pedestrians: they plan the step from its start
+            self.crowd.advance(1, start[:2], self.robot_velocity)
+            self.robot_velocity = (self.state[:2] - start[:2]) / ctrl.dt
+            self.velocity = self.crowd.velocity.copy()
+        elif self.crowd is not None:
             self.crowd.advance(1)
+        if self.crowd is not None:
             self.moving = observed(self.crowd, self.radius)
         return u
 
@@ -62,11 +95,11 @@ class ClosedLoop:
 def time_cases(cases, steps, block=BLOCK):
     """(median, p95) ms per step of every case (cases.Case), in order.
 
-    The closed loops of one problem family (forest, crowd) run interleaved in blocks of
-    `block` steps, each case in turn, so a change in machine load affects them alike and the
-    ratios stay meaningful on a busy machine, while a block's steps find their data in the
-    caches as consecutive control steps do (block = 1: every step after another controller's,
-    cold, about 1.5 x slower); the families run one after the other.
+    The closed loops of one problem family (forest, crowd, corridor, crowd-sf) run interleaved
+    in blocks of `block` steps, each case in turn, so a change in machine load affects them
+    alike and the ratios stay meaningful on a busy machine, while a block's steps find their
+    data in the caches as consecutive control steps do (block = 1: every step after another
+    controller's, cold, about 1.5 x slower); the families run one after the other.
     """
     loops = [ClosedLoop(c.controller, c.problem, steps, **c.params) for c in cases]
     families = {}

@@ -1,14 +1,20 @@
-"""Timing's problems: the tasks' forest and crowd worlds, and the push of forest+push.
+"""Timing's problems: the tasks' forest, crowd and pedestrian worlds, and the push of
+forest+push.
 
 The worlds are the tasks' own, drawn by their generators (dcmppi.tasks.worlds, plain numpy) from
 `np.random.RandomState(SEED)`: the same arrays a task observes (static (M, 3) rows x, y, radius,
 radius-0 rows padding; moving (L, 4) rows x, y, heading, radius; the map's bounds (4,)), and the
-crowd moves as the crowd task's obstacles do (tasks.worlds.DubinsObstacles).
+crowd moves as the crowd task's obstacles do (tasks.worlds.DubinsObstacles). The pedestrian
+problems (PEDESTRIANS) are a task's world with its pedestrians (tasks.pedestrians.Pedestrians)
+built as the task's physics builds them, walking to the goals the task's next_goal gives.
 """
 
 import numpy as np
 
+from dcmppi.tasks import pedestrians as task_pedestrians
 from dcmppi.tasks import worlds as task_worlds
+from dcmppi.tasks.corridor import Corridor
+from dcmppi.tasks.crowd import Crowd
 
 SEED = 0
 GENERATORS = {"forest": task_worlds.generate_forest, "crowd": task_worlds.generate_crowd}
@@ -17,6 +23,46 @@ GENERATORS = {"forest": task_worlds.generate_forest, "crowd": task_worlds.genera
 def world(family, seed=SEED):
     """The tasks' World (dcmppi.tasks.worlds.World) of a problem family ("forest", "crowd")."""
     return GENERATORS[family](np.random.RandomState(seed))
+
+
+# The pedestrian problems' tasks (default parameters): the corridor (12 social-force
+# pedestrians between walls, static cylinder rows in `static`) and the crowd of 100 walkers.
+PEDESTRIANS = {"corridor": Corridor, "crowd-sf": lambda: Crowd(behavior="social_force")}
+
+
+def pedestrian_task(problem, seed=SEED):
+    """The task of a pedestrian problem (a key of PEDESTRIANS) with its world drawn as the task
+    draws an episode's (`task.world`), and that RandomState, which the task hands on to its
+    pedestrians' next_goal."""
+    task = PEDESTRIANS[problem]()
+    random = np.random.RandomState(seed)
+    task.world = task.generate_world(random)
+    return task, random
+
+
+def walking_crowd(task, random, dt):
+    """The pedestrians of `task.world` as the task's physics builds them (Physics.set_world):
+    tasks.pedestrians.Pedestrians stepping once per control period dt [s], walls and the box of
+    the map and the walls as bounds, task.next_goal on arrival. Advance it with
+    advance(1, robot_xy, robot_velocity); observe it with `observed` and its `velocity`."""
+    w = task.world
+    heading = np.column_stack([np.cos(w.moving[:, 2]), np.sin(w.moving[:, 2])])
+    corners = np.concatenate([w.map_bounds.reshape(2, 2), w.walls.reshape(-1, 2)])
+    return task_pedestrians.Pedestrians(
+        w.behavior,
+        w.moving[:, :2],
+        w.moving_speed[:, None] * heading,
+        w.moving_goal,
+        w.moving_pref_speed,
+        w.moving[:, 3],
+        w.walls,
+        [*corners.min(axis=0), *corners.max(axis=0)],
+        task.robot_radius,
+        w.robot_visible,
+        task.next_goal,
+        random,
+        dt,
+    )
 
 
 def forest(seed=SEED):
@@ -34,7 +80,8 @@ def moving_crowd(w, dt):
 
 
 def observed(crowd, radius):
-    """(L, 4) x, y, heading, radius of a DubinsObstacles crowd now, as the task observes them."""
+    """(L, 4) x, y, heading, radius of a crowd (DubinsObstacles or Pedestrians) now, as the task
+    observes them."""
     return np.column_stack([crowd.z.real, crowd.z.imag, crowd.theta, radius])
 
 

@@ -10,6 +10,7 @@ import argparse
 import json
 import os
 import sys
+import textwrap
 
 from dcmppi.control._malloc import tune_malloc
 from dcmppi.render import CAMERAS
@@ -275,6 +276,10 @@ class _Help(argparse.ArgumentDefaultsHelpFormatter):
         if action.default in (None, False) or "default" in (action.help or ""):
             return action.help
         return super()._get_help_string(action)
+
+    def _split_lines(self, text, width):
+        """Lines of at most `width`, never breaking a hyphenated name (corridor-visible)."""
+        return textwrap.wrap(" ".join(text.split()), width, break_on_hyphens=False)
 
 
 def _choices() -> dict[str, str]:

@@ -145,6 +145,23 @@ def default_agent(name) -> str:
     return _CLASSES[name].default_agent
 
 
+def robot(name, kwargs=None) -> dict:
+    """The robot task `name` simulates with task kwargs `kwargs`, its defaults included: {"agent",
+    the agent's parameters (e.g. v_max), "robot_radius"}, what a planner must plan with."""
+    if name not in SUITE:
+        raise ValueError(f"unknown task {name!r}; valid tasks: {', '.join(TASKS)}")
+    cls = _CLASSES[name]
+    kwargs = dict(kwargs or {})
+    unknown = sorted(set(kwargs) - set(task_kwargs(cls)))
+    if unknown:
+        raise ValueError(
+            f"unknown task_kwargs {unknown} for {cls.__name__}; "
+            f"valid: {', '.join(task_kwargs(cls))}"
+        )
+    task = cls(**kwargs)
+    return {"agent": task.agent.name, **task.agent.params, "robot_radius": task.robot_radius}
+
+
 def _build(cls, kwargs, environment_kwargs):
     kwargs = dict(kwargs or {})
     unknown = sorted(set(kwargs) - set(task_kwargs(cls)))
@@ -162,6 +179,7 @@ __all__ = [
     "TASKS",
     "default_agent",
     "load",
+    "robot",
     "task_kwargs",
     "Navigation",
     "Physics",

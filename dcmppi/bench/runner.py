@@ -63,9 +63,9 @@ def robot_keys() -> list[str]:
 
 
 def _shared_args(spec: EpisodeSpec) -> dict:
-    """The seed, the task's robot parameters (agent included) and the shared parameters."""
-    from dcmppi.tasks import default_agent
-
+    """The seed, the task's robot parameters (agent included, the task's defaults where
+    task_params do not set them: the corridor's 0.3 m radius, the square's 1 m/s) and the
+    shared parameters."""
     keys = robot_keys()
     clash = sorted(set(keys) & (set(spec.controller_params) | set(spec.shared_params)))
     if clash:
@@ -73,9 +73,7 @@ def _shared_args(spec: EpisodeSpec) -> dict:
             f"{', '.join(clash)}: robot parameters are task parameters (the plant and the "
             "planner share them); set them with --task-param / task_params"
         )
-    shared = {k: spec.task_params[k] for k in keys if k in spec.task_params}
-    shared.setdefault("agent", default_agent(spec.task))
-    return {**shared, **spec.shared_params, "seed": spec.controller_seed()}
+    return {**_robot(spec), **spec.shared_params, "seed": spec.controller_seed()}
 
 
 def controller_for(spec: EpisodeSpec):
@@ -169,7 +167,16 @@ def warm_up(spec: EpisodeSpec, observation) -> None:
 
 
 def _robot(spec: EpisodeSpec) -> dict:
-    return {k: v for k, v in spec.task_params.items() if k in robot_keys()}
+    """The robot the task simulates for spec (dcmppi.tasks.robot), computed once per task and
+    task parameters."""
+    return dict(_task_robot(spec.task, json.dumps(spec.task_params, sort_keys=True)))
+
+
+@functools.lru_cache(maxsize=64)
+def _task_robot(task: str, task_params: str) -> tuple:
+    from dcmppi.tasks import robot
+
+    return tuple(robot(task, json.loads(task_params)).items())
 
 
 class Diagnosis:

@@ -14,7 +14,10 @@ MINIMAL = 'task = "blocked"\nepisodes = 2\n[[rows]]\ncontroller = "mppi"\n'
 
 
 def test_shipped_experiments_hold_the_papers_setup():
-    assert experiment_names() == ["barn", "dynamic", "dynamic-dubins", "dynamic-ekf", "static"]
+    assert experiment_names() == [
+        "barn", "corridor", "corridor-mismatch", "corridor-visible", "crowd-sf", "dynamic",
+        "dynamic-dubins", "dynamic-ekf", "square-orca", "static",
+    ]  # fmt: skip
     static = load_experiment("static")
     assert (static.task, static.episodes, static.base_seed) == ("forest", 1000, 2024)
     assert static.labels == ("mppi", "tube", "clustered")
@@ -45,9 +48,27 @@ def test_shipped_experiments_hold_the_papers_setup():
     assert ekf.controller_params == dynamic.controller_params
     assert ekf.labels == ("mppi+margin", "dc-prior", "dc-ekf") and ekf.reference == "dc-ekf"
     assert ekf.row("dc-ekf").params == {"prediction": "ekf", "measurement_std": 0.1}
+    for name, task, behavior, visible in (
+        ("corridor", "corridor", "social_force", False),
+        ("corridor-visible", "corridor", "social_force", True),
+        ("square-orca", "square", "orca", False),
+        ("crowd-sf", "crowd", "social_force", False),
+    ):
+        walking = load_experiment(name)
+        assert (walking.task, walking.episodes, walking.reference) == (task, 300, "mppi+margin")
+        assert walking.task_params["behavior"] == behavior
+        assert walking.task_params["robot_visible"] is visible
+        assert walking.controller_params == dynamic.controller_params
+        assert walking.labels == ("mppi", "mppi+margin", "clustered", "dc", "dc-cv", "dc-social")
+        assert walking.row("dc-social").params == {"prediction": "social"}
+    mismatch = load_experiment("corridor-mismatch")
+    assert mismatch.labels == ("mppi+margin", "dc", "dc-ekf", "dc-cv", "dc-social")
 
 
-@pytest.mark.parametrize("name", ["static", "dynamic", "dynamic-dubins", "dynamic-ekf"])
+@pytest.mark.parametrize(
+    "name",
+    ["static", "dynamic", "dynamic-dubins", "dynamic-ekf", "corridor", "square-orca", "crowd-sf"],
+)
 def test_every_shipped_row_builds(name):
     """Each row's controller takes the experiment's parameters with the task's agent."""
     check_specs([spec for _, spec in load_experiment(name).select(episodes=1).specs()])
@@ -87,7 +108,7 @@ def test_a_file_by_path_takes_its_name_from_the_stem(tmp_path):
     assert load_experiment(str(path)).name == "other"
     with pytest.raises(ValueError, match="cannot read"):
         load_experiment(str(tmp_path / "missing.toml"))
-    with pytest.raises(ValueError, match="unknown experiment 'nope'; valid: barn, dynamic"):
+    with pytest.raises(ValueError, match="unknown experiment 'nope'; valid: barn, corridor"):
         load_experiment("nope")
 
 

@@ -252,3 +252,17 @@ def test_act_passes_the_moving_velocity_to_controllers_that_take_it():
     assert keywords.kwargs["moving_velocity"] is velocity
     assert keywords.kwargs["bounds"] is obs["map_bounds"]
     act(plain, {**obs, "moving_velocity": velocity})  # a user's act without the keywords
+
+
+def test_planner_gets_the_robot_the_task_simulates():
+    """Robot parameters the task sets by default reach the planner too: the corridor's 0.3 m
+    robot, the square's 1 m/s top speed; task_params still override them."""
+    from dcmppi.bench.runner import EpisodeSpec, controller_for
+
+    corridor = controller_for(EpisodeSpec("corridor", "dc", seed=0))
+    assert corridor.robot_radius == 0.3 and corridor.agent.name == "holonomic"
+    square = controller_for(EpisodeSpec("square", "mppi", seed=0))
+    assert square.agent.v_max == 1.0 and square.robot_radius == 0.3
+    faster = controller_for(EpisodeSpec("square", "mppi", seed=0, task_params={"v_max": 1.2}))
+    assert faster.agent.v_max == 1.2
+    assert controller_for(EpisodeSpec("forest", "mppi", seed=0)).robot_radius == 0.5

@@ -34,7 +34,8 @@ def test_module_class_is_built_with_the_arguments_it_takes():
     assert isinstance(c, user_controllers.Straight)
     assert c.gain == 2.0 and c.seed == _spec("x").controller_seed()  # K and agent: not taken
     anything = controller_for(_spec(f"{MODULE}:Anything", {"x": 1}, {"K": 64}))
-    assert anything.params == {"x": 1, "K": 64, "agent": "dubins", "seed": anything.params["seed"]}
+    robot = {"agent": "dubins", "v": 1.0, "r_min": 1.0, "robot_radius": 0.5}  # the task's
+    assert anything.params == {"x": 1, "K": 64, **robot, "seed": anything.params["seed"]}
     careful = controller_for(_spec(f"{MODULE}:Careful", {"care": 3.0}, SMALL, {"v": 1.5}))
     assert (careful.care, careful.K, careful.agent.params["v"]) == (3.0, 32, 1.5)
 

@@ -70,10 +70,10 @@ def write_figures(observation, runs, out_dir, title: str) -> dict:
     for ax, (name, (ctrl, action)) in zip(axes, runs.items(), strict=True):
         d = ctrl.diagnostics
         J0 = d.J.min()
-        value = np.exp(-(d.J - J0) / ctrl.lambda_)
+        value = np.exp(-(d.J - J0) / d.lambda_)  # the step's lambda (a number under "auto")
         labels = cluster_labels(d)
         ax.scatter(d.eps[:, 0, j], value, s=9, c=cluster_rgb(labels, len(value)), lw=0)
-        star = np.exp(-(plan_cost(ctrl, state) - J0) / ctrl.lambda_)
+        star = np.exp(-(plan_cost(ctrl, state) - J0) / d.lambda_)
         ax.plot(
             action[j] - U0, star, "*", ms=18, color="gold", mec="k",
             label=f"applied {action[j]:+.3f}",

@@ -144,8 +144,11 @@ def test_pyproject_installs_each_top_level_folder_as_the_package_maps_it():
     for name, folder in dcmppi.TOP_LEVEL_FOLDERS.items():
         # a source checkout finds the folder through the package's path: same last name
         assert name.split(".")[-1] == folder
+        # the package imported (from the checkout, an editable or a built install) is that
+        # folder's: the same __init__.py
         module = importlib.import_module(name)
-        assert pathlib.Path(module.__file__) == ROOT / folder / "__init__.py"
+        source = (ROOT / folder / "__init__.py").read_bytes()
+        assert pathlib.Path(module.__file__).read_bytes() == source, module.__file__
 
 
 def test_no_module_imports_another_in_a_circle():

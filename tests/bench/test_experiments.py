@@ -59,10 +59,25 @@ def test_shipped_experiments_hold_the_papers_setup():
         assert walking.task_params["behavior"] == behavior
         assert walking.task_params["robot_visible"] is visible
         assert walking.controller_params == dynamic.controller_params
-        assert walking.labels == ("mppi", "mppi+margin", "clustered", "dc", "dc-cv", "dc-social")
+        assert walking.labels == (
+            "mppi",
+            "mppi+margin",
+            "clustered",
+            "dc",
+            "dc-cv",
+            "dc-social",
+            "dc-social-blind",
+        )
         assert walking.row("dc-social").params == {"prediction": "social"}
     mismatch = load_experiment("corridor-mismatch")
-    assert mismatch.labels == ("mppi+margin", "dc", "dc-ekf", "dc-cv", "dc-social")
+    assert mismatch.labels == (
+        "mppi+margin",
+        "dc",
+        "dc-ekf",
+        "dc-cv",
+        "dc-social",
+        "dc-social-blind",
+    )
 
 
 @pytest.mark.parametrize(

@@ -180,3 +180,25 @@ def test_the_controller_gives_the_inputs_a_predictor_names():
 def test_cv_std_must_not_be_negative():
     with pytest.raises(ValueError, match="cv_std"):
         dcmppi.make_controller("dc", prediction="cv", cv_std=-0.1)
+
+
+def test_social_blind_to_the_robot_is_cv_with_pedestrians_only():
+    """reactive=False: the robot's plan pushes nobody; one lone pedestrian's futures are then
+    exactly cv's for the same draws, even with the plan driving through it."""
+    state = np.zeros(3)
+    moving = np.array([[2.0, 0.0, np.pi, 0.3]])
+    velocity = np.array([[-1.0, 0.0]])
+    plan = np.column_stack([np.linspace(0, 5, 21), np.zeros(21), np.zeros(21)])
+    shared = dict(N=20, dt=0.1, robot_radius=0.3, max_speed=1.5, alpha=1000.0, beta=100.0, P=4,
+                  obstacle_margin=0.0)  # fmt: skip
+    blind = make_predictor("social", reactive=False, **shared)
+    seen = make_predictor("social", **shared)
+    cv = make_predictor("cv", **shared)
+    rng = lambda: np.random.default_rng(3)  # noqa: E731
+    a = blind.predict(state, moving, None, rng(), velocity=velocity, robot_plan=plan)
+    b = cv.predict(state, moving, None, rng(), velocity=velocity)
+    c = seen.predict(state, moving, None, rng(), velocity=velocity, robot_plan=plan)
+    np.testing.assert_allclose(a.futures, b.futures, atol=1e-9)
+    assert np.abs(c.futures - b.futures).max() > 0.1  # the plan pushes the reactive ones
+    with pytest.raises(ValueError, match="reactive must be true or false"):
+        make_predictor("social", reactive="no", **shared)

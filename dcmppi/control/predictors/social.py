@@ -5,10 +5,12 @@ Future p draws the same velocity errors as "cv" (so without interactions its fut
 pedestrian l wants to walk at desired_lp = v_l + dv_lp, dv_lp ~ N(0, cv_std^2 I), starts at its
 observed position with that velocity, and all pedestrians within reach move together by
 dcmppi.control.social.rollout (Helbing & Molnar, the kernel the tasks' pedestrians use): pushed
-by each other (their observed radii) and by the robot along its plan (predictor input
-"robot_plan": the warm start rolled out from the current state, radius robot_radius), no
-walls. Each pedestrian's speed is capped at MAX_SPEED_FACTOR x its fastest desired speed over
-the P futures (the kernel takes one cap per pedestrian).
+by each other (their observed radii) and, with reactive=True (the default), by the robot along
+its plan (predictor input "robot_plan": the warm start rolled out from the current state,
+radius robot_radius), no walls. reactive=False predicts pedestrians blind to the robot (as
+CrowdNav++'s): a reactive prediction of a crowd that does not react lets the plan push them
+out of its way on paper only. Each pedestrian's speed is capped at MAX_SPEED_FACTOR x its
+fastest desired speed over the P futures (the kernel takes one cap per pedestrian).
 
 An obstacle is left out when none of its futures can reach a rollout, with that cap as the
 speed of every future (exact: no future is faster); the left-out pedestrians push nobody.
@@ -25,10 +27,18 @@ from .cv import ConstantVelocity
 class Social(ConstantVelocity):
     """P social-force futures of the pedestrians within reach (module docstring).
 
-    Extra args: cv_std: std of each future's desired-velocity error per axis [m/s] (>= 0).
+    Extra args: cv_std: std of each future's desired-velocity error per axis [m/s] (>= 0);
+    reactive: whether the predicted pedestrians avoid the robot's plan (bool).
     """
 
     inputs = ("velocity", "robot_plan")
+    own_params = ("cv_std", "reactive")
+
+    def __init__(self, *, reactive=True, **params):
+        if not isinstance(reactive, bool):
+            raise ValueError(f"reactive must be true or false; got {reactive!r}")
+        self.reactive = reactive
+        super().__init__(**params)
 
     def predict(self, state, moving, obstacle_model, rng, velocity=None, robot_plan=None):
         """As Predictor.predict; velocity (L, 2) observed; robot_plan (N + 1, 3) the robot's
@@ -42,7 +52,7 @@ class Social(ConstantVelocity):
         if not near.any():
             return self.none()
         desired = np.ascontiguousarray(desired[near].transpose(1, 0, 2))  # (P, n, 2)
-        if robot_plan is None:
+        if robot_plan is None or not self.reactive:
             path, robot = np.zeros((self.N + 1, 0, 2)), np.zeros(0)
         else:
             path, robot = np.asarray(robot_plan)[:, None, :2], np.array([self.robot_radius])

@@ -150,19 +150,13 @@ def robot(name, kwargs=None) -> dict:
     the agent's parameters (e.g. v_max), "robot_radius"}, what a planner must plan with."""
     if name not in SUITE:
         raise ValueError(f"unknown task {name!r}; valid tasks: {', '.join(TASKS)}")
-    cls = _CLASSES[name]
-    kwargs = dict(kwargs or {})
-    unknown = sorted(set(kwargs) - set(task_kwargs(cls)))
-    if unknown:
-        raise ValueError(
-            f"unknown task_kwargs {unknown} for {cls.__name__}; "
-            f"valid: {', '.join(task_kwargs(cls))}"
-        )
-    task = cls(**kwargs)
+    task = _task(_CLASSES[name], kwargs)
     return {"agent": task.agent.name, **task.agent.params, "robot_radius": task.robot_radius}
 
 
-def _build(cls, kwargs, environment_kwargs):
+def _task(cls, kwargs):
+    """Task class `cls` built with `kwargs`; unknown names are one ValueError listing the
+    valid ones."""
     kwargs = dict(kwargs or {})
     unknown = sorted(set(kwargs) - set(task_kwargs(cls)))
     if unknown:
@@ -170,7 +164,11 @@ def _build(cls, kwargs, environment_kwargs):
             f"unknown task_kwargs {unknown} for {cls.__name__}; "
             f"valid: {', '.join(task_kwargs(cls))}"
         )
-    return make_environment(cls(**kwargs), environment_kwargs)
+    return cls(**kwargs)
+
+
+def _build(cls, kwargs, environment_kwargs):
+    return make_environment(_task(cls, kwargs), environment_kwargs)
 
 
 __all__ = [

@@ -14,6 +14,7 @@ import json
 import math
 import numbers
 import time
+import zlib
 from collections.abc import Callable
 
 import numpy as np
@@ -336,10 +337,10 @@ class FieldMetrics:
 class Episode:
     """A running episode of `spec`, advanced one control step at a time.
 
-    Attributes: spec, env, controller, time_step (the latest dm_env TimeStep), path (list of
-    (2,) robot positions, one per step and the start), ctrl_s and env_s (seconds per step
-    in the controller and in env.step), diagnosis (`Diagnosis` of every step), metrics
-    (`FieldMetrics` of every step).
+    Attributes: spec, env, controller, time_step (the latest dm_env TimeStep), poses (list of
+    (3,) robot poses x, y, yaw, the start's and one per step), path (array (steps + 1, 2) of
+    their positions), ctrl_s and env_s (seconds per step in the controller and in env.step),
+    diagnosis (`Diagnosis` of every step), metrics (`FieldMetrics` of every step).
     """
 
     def __init__(self, spec: EpisodeSpec):
@@ -350,11 +351,15 @@ class Episode:
         self.controller.reset()
         self.time_step = self.env.reset()
         warm_up(spec, self.time_step.observation)
-        self.path = [self.time_step.observation["robot_pose"][:2].copy()]
+        self.poses = [self.time_step.observation["robot_pose"].copy()]
         self.ctrl_s: list[float] = []
         self.env_s: list[float] = []
         self.diagnosis = Diagnosis()
         self.metrics = FieldMetrics(self.env)
+
+    @property
+    def path(self) -> np.ndarray:
+        return np.asarray(self.poses)[:, :2]
 
     @property
     def done(self) -> bool:
@@ -371,7 +376,7 @@ class Episode:
         self.ctrl_s.append(t1 - t0)
         self.env_s.append(t2 - t1)
         self.diagnosis.read(self.controller, observation["robot_pose"])
-        self.path.append(self.time_step.observation["robot_pose"][:2].copy())
+        self.poses.append(self.time_step.observation["robot_pose"].copy())
         self.metrics.read(self.env.physics)
 
     def result(self) -> dict:
@@ -379,7 +384,7 @@ class Episode:
         from dcmppi.tasks.barn import navigation_score
         from dcmppi.tasks.navigation import GOAL_TOLERANCE
 
-        path = np.asarray(self.path)
+        path = self.path
         outcome = self.env.task.outcome
         ctrl_ms = 1e3 * np.asarray(self.ctrl_s)
         elapsed = float(self.env.physics.data.time)
@@ -411,6 +416,8 @@ class Episode:
             "env_ms_mean": float(1e3 * np.mean(self.env_s)) if self.env_s else 0.0,
             **self.diagnosis.result(),
             "wall_s": time.perf_counter() - self.start,
+            "final_pose": [float(v) for v in self.poses[-1]],
+            "trace": encode_trace(self.poses),
         }
 
 
@@ -438,7 +445,9 @@ def run_episode(
       ped_speed_loss), min_clearance [m], ctrl_ms_mean, ctrl_ms_p95 (controller time per
       step, first-call costs excluded by `warm_up`), env_ms_mean, the diagnostics ess_mean,
       clusters_mean, fallback_share, tube_deviation_p95 [m] (None where the controller records
-      none; see `Diagnosis`), wall_s.
+      none; see `Diagnosis`), wall_s, final_pose ([x, y, yaw] when it ended), trace (bytes: the
+      robot's pose at every control instant, see `encode_trace`; `dcmppi.bench.replay` compares
+      it).
     """
     episode = Episode(spec)
     if on_step is not None:
@@ -449,5 +458,15 @@ def run_episode(
             on_step(episode)
     result = episode.result()
     if keep_path:
-        result["path"] = np.asarray(episode.path)
+        result["path"] = episode.path
     return result
+
+
+def encode_trace(poses) -> bytes:
+    """Poses (n, 3) x, y, yaw as zlib-compressed little-endian float32 (a result's "trace")."""
+    return zlib.compress(np.asarray(poses, dtype="<f4").reshape(-1, 3).tobytes())
+
+
+def decode_trace(blob: bytes) -> np.ndarray:
+    """The poses (n, 3) float32 of an `encode_trace` blob."""
+    return np.frombuffer(zlib.decompress(blob), dtype="<f4").reshape(-1, 3)

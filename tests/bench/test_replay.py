@@ -1,0 +1,147 @@
+"""Episode traces, replay of recorded episodes, the failure gallery."""
+
+import concurrent.futures as cf
+import multiprocessing
+import pathlib
+import sqlite3
+
+import numpy as np
+import pytest
+
+from dcmppi import tasks
+from dcmppi.bench import replay as rp
+from dcmppi.bench.experiments import Experiment
+from dcmppi.bench.results import ResultsDB
+from dcmppi.bench.runner import EpisodeSpec, decode_trace, encode_trace, run_episode
+
+BARN = pathlib.Path(__file__).parents[1] / "tasks" / "data" / "barn_worlds_0_1.csv"
+TINY = {"K": 16, "N": 8}
+# every task, with short episodes and its own tiny parameters
+TASK_PARAMS = {
+    "forest": {"time_limit": 1.5},
+    "crowd": {"time_limit": 1.5, "n_obstacles": 20},
+    "corridor": {"time_limit": 1.5, "n_pedestrians": 4},
+    "square": {"time_limit": 1.5, "n_pedestrians": 3},
+    "blocked": {"time_limit": 1.5},
+    "crossing": {"time_limit": 1.5},
+    "layout": {"time_limit": 1.5, "path": str(BARN)},
+}
+
+
+def record(
+    path, task, episodes=1, noise="control", workers=1, rows=("mppi",), params=TINY, **task_params
+):
+    """A results database at `path` of `episodes` tiny episodes per row of `task`."""
+    exp = Experiment.from_dict(
+        {
+            "task": task,
+            "noises": [noise],
+            "episodes": episodes,
+            "base_seed": 5,
+            "task_params": {**TASK_PARAMS[task], **task_params},
+            "controller_params": params,
+            **({"env_param": "world"} if task == "layout" else {}),
+            "rows": [{"label": r, "controller": r} for r in rows],
+        },
+        "test",
+    )
+    keys, specs = zip(*exp.specs(), strict=True)
+    if workers > 1:  # fresh processes, as the bench's pool
+        context = multiprocessing.get_context("spawn")
+        with cf.ProcessPoolExecutor(workers, mp_context=context) as pool:
+            results = list(pool.map(run_episode, specs))
+    else:
+        results = [run_episode(spec) for spec in specs]
+    db = ResultsDB(path, exp.config())
+    for key, spec, result in zip(keys, specs, results, strict=True):
+        db.record(key, spec, result)
+    db.close()
+    return exp
+
+
+def test_an_episode_result_holds_its_trace_and_final_pose():
+    spec = EpisodeSpec("blocked", "mppi", "control", 3, {"time_limit": 1.0}, TINY)
+    result = run_episode(spec, keep_path=True)
+    trace = decode_trace(result["trace"])
+    assert trace.shape == (result["steps"] + 1, 3) and trace.dtype == np.float32
+    assert (trace[:, :2] == result["path"].astype(np.float32)).all()
+    assert trace[-1].tolist() == np.float32(result["final_pose"]).tolist()
+    assert trace[0, 0] < trace[-1, 0]  # it drove toward the goal (+x)
+    assert (decode_trace(encode_trace(trace)) == trace).all()
+
+
+def test_every_task_replays_exactly(tmp_path):
+    for task in tasks.TASKS:
+        db = tmp_path / f"{task}.db"
+        record(db, task)
+        r = rp.replay([db], "mppi", 0)
+        assert r.reproduced, r.message
+        assert "reproduced (exact)" in r.message.splitlines()[0]
+        assert f"identical at all {r.record['steps'] + 1} control instants" in r.message
+
+
+@pytest.mark.slow
+def test_an_episode_recorded_by_a_worker_process_replays_here(tmp_path):
+    record(tmp_path / "r.db", "crowd", episodes=2, workers=2)
+    assert all(rp.replay(tmp_path / "r.db", "mppi", i).reproduced for i in range(2))
+
+
+def _tamper(db, sql, *args):
+    with sqlite3.connect(db) as con:
+        con.execute(sql, args)
+    con.close()
+
+
+def test_a_changed_record_is_not_reproduced_and_the_departure_is_named(tmp_path):
+    db = tmp_path / "r.db"
+    record(db, "blocked")
+    trace = decode_trace(rp.replay(db, "mppi", 0).record["trace"]).copy()
+    trace[7, 1] += 0.25
+    _tamper(db, "UPDATE episodes SET trace = ?", encode_trace(trace))
+    r = rp.replay(db, "mppi", 0)
+    assert not r.reproduced and r.departs == 7
+    assert "NOT reproduced" in r.message and "departs at control instant 7" in r.message
+    assert "by 0.25 m" in r.message
+    _tamper(db, "UPDATE episodes SET trace = ?, steps = steps + 1", encode_trace(trace[:5]))
+    r = rp.replay(db, "mppi", 0)
+    assert not r.reproduced and r.departs == 5
+    assert "steps: 15 (recorded 16)" in r.message
+    _tamper(db, "UPDATE episodes SET final_x = final_x + 1e-9, outcome = 'collision'")
+    r = rp.replay(db, "mppi", 0)
+    assert "outcome: time_limit (recorded collision)" in r.message
+    assert "final pose" in r.message and "(recorded" in r.message.split("final pose")[1]
+
+
+def test_replay_names_what_the_databases_hold(tmp_path):
+    db = tmp_path / "r.db"
+    record(db, "blocked", rows=("mppi", "dc"))
+    with pytest.raises(ValueError, match=r"no episode of row 'tube', environment 0; .* dc \(noise"):
+        rp.replay([db], "tube", 0)
+    with pytest.raises(ValueError, match="no episode of row 'dc', environment 3"):
+        rp.replay([db], "dc", 3)
+    _tamper(db, "UPDATE episodes SET seed = seed + 1 WHERE label = 'dc'")
+    with pytest.raises(ValueError, match="recorded seed differ from .* configuration"):
+        rp.replay([db], "dc", 0)
+
+
+@pytest.mark.slow
+def test_gallery_renders_failures_and_one_success_through_the_replay(tmp_path, capsys):
+    db = tmp_path / "r.db"
+    # 1.5 s: every episode times out (a failure); an empty square is crossed
+    record(db, "blocked", episodes=3, rows=("mppi",))
+    big = {"K": 64, "N": 20}
+    record(tmp_path / "s.db", "square", rows=("dc",), params=big, n_pedestrians=0, time_limit=9.0)
+    out = rp.gallery([db, tmp_path / "s.db"], tmp_path / "report", 2)
+    assert out == {
+        ("control", "mppi"): [
+            (0, "time_limit", "gallery/control-mppi-env0.gif"),
+            (1, "time_limit", "gallery/control-mppi-env1.gif"),
+        ],
+        ("control", "dc"): [(0, "goal", "gallery/control-dc-env0.gif")],
+    }
+    gif = tmp_path / "report" / "gallery" / "control-dc-env0.gif"
+    import imageio.v3 as iio
+
+    frames = iio.imread(gif)
+    assert frames.shape[1:3] == (rp.GALLERY_SIZE[1], rp.GALLERY_SIZE[0])
+    assert capsys.readouterr().err == ""  # every replay reproduced

@@ -71,7 +71,8 @@ def differences(stored: dict, new: dict) -> list[str]:
     if stored.get("dcmppi") != new.get("dcmppi"):
         out.append(f"dcmppi {stored.get('dcmppi')} -> {new.get('dcmppi')}")
     if stored.get("code_sha256") != new.get("code_sha256"):
-        out.append(f"dcmppi's code {short(stored)} -> {short(new)}")
+        a, b = (str(p.get("code_sha256"))[:8] for p in (stored, new))
+        out.append(f"dcmppi's code (sha256 {a} -> {b}; {_where(stored)} -> {_where(new)})")
     task_old, task_new = stored.get("task", {}), new.get("task", {})
     out += _params("task parameter", task_old.get("params", {}), task_new.get("params", {}))
     rows_old, rows_new = stored.get("rows", {}), new.get("rows", {})
@@ -104,12 +105,14 @@ def short(prov: dict | None) -> str:
     dirty)'."""
     if not prov:
         return "unknown (recorded before provenance)"
+    code = (prov.get("code_sha256") or "?")[:8]
+    return f"dcmppi {prov.get('dcmppi')} code {code} ({_where(prov)})"
+
+
+def _where(prov: dict) -> str:
     commit = prov.get("commit")
     where = "no git checkout" if commit is None else f"commit {commit[:7]}"
-    if prov.get("dirty"):
-        where += ", dirty"
-    code = (prov.get("code_sha256") or "?")[:8]
-    return f"dcmppi {prov.get('dcmppi')} code {code} ({where})"
+    return where + (", dirty" if prov.get("dirty") else "")
 
 
 def code_version() -> tuple[str, str | None, bool | None]:

@@ -18,11 +18,11 @@ import csv
 import dataclasses
 import datetime
 import os
-import socket
 from pathlib import Path
 
 from dcmppi.bench.experiments import Experiment, Row
-from dcmppi.bench.results import COLUMN_NAMES, ResultsDB
+from dcmppi.bench.provenance import differences, short
+from dcmppi.bench.results import TABLE_COLUMNS, ResultsDB, _canonical, writer_alive
 from dcmppi.bench.stats import (
     field_metrics,
     fmt,
@@ -83,9 +83,10 @@ def groups(rows: list[dict], exp: Experiment) -> list[tuple[str, str]]:
     return [(n, c) for n in noises for c in labels if (n, c) in present]
 
 
-def table(rows: list[dict], exp: Experiment) -> str:
+def table(rows: list[dict], exp: Experiment, links: dict | None = None) -> str:
     """The Markdown table in the layout of the paper's Table I, with goal, left-map and
-    time-limit counts and McNemar against the reference row."""
+    time-limit counts and McNemar against the reference row; '-' for a row of errors only.
+    `links` {(noise, label): Markdown} adds a column of replays (report.md's gallery)."""
     stats = summarize(rows)
     ref = exp.reference
     head = (
@@ -96,17 +97,24 @@ def table(rows: list[dict], exp: Experiment) -> str:
     if ref:
         head += f" Collisions vs {ref}: McNemar |"
         rule += "---|"
+    if links is not None:
+        head += " Replays |"
+        rule += "---|"
     lines = [head, rule]
     for noise, label in groups(rows, exp):
         s = stats[(noise, label)]
         paper = exp.paper(noise, label)
-        lo, hi = s["failure_ci_pct"]
         errors = f" (+{s['errors']} errors)" if s["errors"] else ""
         ms = "-" if s["ctrl_ms"] is None else f"{s['ctrl_ms']:.2f}"
+        if s["episodes"]:
+            lo, hi = s["failure_ci_pct"]
+            goal, failure = f"{s['goal_pct']:.1f}", f"{s['failure_pct']:.1f} [{lo:.1f}, {hi:.1f}]"
+        else:  # errors only
+            goal = failure = "-"
         line = (
-            f"| {noise} | {label} | {s['episodes']}{errors} | {s['goal_pct']:.1f} | "
+            f"| {noise} | {label} | {s['episodes']}{errors} | {goal} | "
             f"{s['collisions']} ({fmt(paper.collisions)}) | "
-            f"{s['failure_pct']:.1f} [{lo:.1f}, {hi:.1f}] ({fmt(paper.failure_pct)}) | "
+            f"{failure} ({fmt(paper.failure_pct)}) | "
             f"{s['left_map']} | {s['time_limit']} | {ms} ({fmt(paper.ms_per_step)}) |"
         )
         if ref:
@@ -117,6 +125,8 @@ def table(rows: list[dict], exp: Experiment) -> str:
                 else ""
             )
             line += f" {vs} |"
+        if links is not None:
+            line += f" {links.get((noise, label), '')} |"
         lines.append(line)
     return "\n".join(lines)
 
@@ -225,16 +235,20 @@ def speed_table(rows: list[dict], exp: Experiment) -> str:
     return "\n".join(lines)
 
 
-def notice(rows: list[dict], exp: Experiment, writer: dict | None) -> str:
-    """'' for a complete database; otherwise what is missing, with the counts per row."""
+def notice(rows: list[dict], exp: Experiment, writers: list[tuple[str, dict]]) -> str:
+    """'' for a complete database; otherwise what is missing, with the counts per row.
+    `writers`: [(database name, writer mark)] of the databases that hold one."""
     lines = []
-    if writer:
+    for name, writer in writers:
         started = datetime.datetime.fromtimestamp(writer["started"]).strftime("%Y-%m-%d %H:%M")
         who = f"`dcmppi bench` (pid {writer['pid']} on {writer['host']}, started {started})"
-        if writer["host"] == socket.gethostname() and _alive(writer["pid"]):
-            lines.append(f"**Still being written** by {who}: the figures below are partial.")
+        of = f" ({name})" if name else ""
+        if writer_alive(writer):
+            lines.append(f"**Still being written**{of} by {who}: the figures below are partial.")
         else:
-            lines.append(f"**Interrupted**: {who} stopped before finishing; rerun it to complete.")
+            lines.append(
+                f"**Interrupted**{of}: {who} stopped before finishing; rerun it to complete."
+            )
     wanted = {(n, c) for n in exp.noises for c in exp.labels}
     counts = {g: [0, 0] for g in wanted}
     for r in rows:
@@ -255,63 +269,282 @@ def notice(rows: list[dict], exp: Experiment, writer: dict | None) -> str:
     return "\n\n".join(lines)
 
 
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
+# Columns that differ between two runs of one episode without its results differing.
+TIMING = ("ctrl_ms_mean", "ctrl_ms_p95", "env_ms_mean", "wall_s", "run_id", "error", "traceback")
 
 
-def load(db_path: str | Path) -> tuple[list[dict], Experiment, dict | None, dict]:
-    """Rows, the experiment the latest bench run asked for, the writer mark and the
-    configuration the database is bound to."""
-    db = ResultsDB(db_path)
-    rows, definition, writer, config = db.rows(), db.experiment, db.writer, db.config
-    db.close()
+@dataclasses.dataclass
+class Loaded:
+    """The rows of one or several databases of one configuration (shards), merged: each row
+    gains "source" (the index of its database in `paths`)."""
+
+    paths: list[Path]
+    rows: list[dict]
+    exp: Experiment
+    writers: list[tuple[str | None, dict]]  # (database name where several, writer mark)
+    config: dict
+    runs: list[dict]  # ResultsDB.runs() of each database, each with "source"
+    conflicts: list[str]  # episodes two databases hold with different results
+
+
+def load(db_paths) -> Loaded:
+    """The rows of the databases `db_paths` (a path or a list), their latest experiment
+    definition, writer marks, merged configuration and runs. Databases of different
+    configurations are refused (ValueError, one line); an episode in several is reported
+    once (a finished row over an error row; differing results are listed as conflicts)."""
+    paths = [Path(db_paths)] if isinstance(db_paths, (str, os.PathLike)) else list(db_paths)
+    if not paths:
+        raise ValueError("no results database given; pass --db PATH (repeat it for shards)")
+    paths = [Path(p) for p in paths]
+    several = len(paths) > 1
+    merged, writers, runs, conflicts = {}, [], [], []
+    config = definition = None
+    for i, path in enumerate(paths):
+        db = ResultsDB(path)
+        try:
+            rows, writer, runs_i = db.rows(), db.writer, db.runs()
+            config = db.config if config is None else _combine(paths[0], config, path, db.config)
+            definition = definition or db.experiment
+        finally:
+            db.close()
+        if writer:
+            writers.append((path.name if several else None, writer))
+        runs += [{**run, "source": i} for run in runs_i]
+        for row in rows:
+            row["source"] = i
+            key = (row["noise"], row["label"], row["env_index"])
+            old = merged.setdefault(key, row)
+            if old is row or row["status"] != "ok":
+                continue
+            if old["status"] != "ok":
+                merged[key] = row
+                continue
+            differ = [
+                c
+                for c in TABLE_COLUMNS
+                if c not in TIMING and None not in (old[c], row[c]) and old[c] != row[c]
+            ]
+            if differ:
+                c = differ[0]
+                conflicts.append(
+                    f"{'/'.join(map(str, key))} ({c} {old[c]} in {paths[old['source']].name}, "
+                    f"{row[c]} in {path.name})"
+                )
+    rows = [merged[k] for k in sorted(merged)]
     if not rows or definition is None:
-        raise ValueError(f"{db_path}: no episodes recorded yet; run `dcmppi bench` first")
-    exp = Experiment.from_dict(definition, f"{db_path} (stored experiment)", resolve=False)
+        raise ValueError(
+            f"{', '.join(map(str, paths))}: no episodes recorded yet; run `dcmppi bench` first"
+        )
+    exp = Experiment.from_dict(definition, f"{paths[0]} (stored experiment)", resolve=False)
     older = tuple(  # rows of earlier runs that the latest one did not define
         Row(label, row["controller"], row["params"])
         for label, row in config["rows"].items()
         if label not in {r.label for r in exp.rows}
     )
-    return rows, dataclasses.replace(exp, rows=exp.rows + older), writer, config
+    exp = dataclasses.replace(exp, rows=exp.rows + older)
+    return Loaded(paths, rows, exp, writers, config, runs, conflicts)
 
 
-def write_report(db_path: str | Path, out_dir: str | Path, plots: bool = True) -> str:
+def _combine(first: Path, config: dict, path: Path, other: dict) -> dict:
+    """Two shards' configurations as one (rows of other labels are added); a ValueError names
+    what differs."""
+    differ = [k for k in sorted(config.keys() | other.keys()) if k != "rows"]
+    differ = [k for k in differ if config.get(k) != other.get(k)]
+    a, b = config.get("rows", {}), other.get("rows", {})
+    differ += [f"row {label!r}" for label in sorted(a.keys() & b.keys()) if a[label] != b[label]]
+    if differ:
+        raise ValueError(
+            f"{first} and {path} hold results of different configurations ({', '.join(differ)} "
+            "differ); report them separately"
+        )
+    return {**config, "rows": {**b, **a}}
+
+
+def provenance(data: Loaded) -> tuple[str, list[str], str]:
+    """(the terminal's provenance line, report.md's Provenance section, the notice that the
+    rows were recorded under several conditions ('' when not))."""
+    several = len(data.paths) > 1
+    recorded = [run for run in data.runs if run["provenance"] is not None]
+    name = {
+        (run["source"], run["run_id"]): (
+            f"{data.paths[run['source']].name} run {run['run_id']}" if several
+            else f"run {run['run_id']}"
+        )
+        for run in data.runs
+    }  # fmt: skip
+    conditions = []  # distinct provenances, in the order of the runs
+    state = {}  # (source, run_id) -> index into conditions
+    for run in recorded:
+        prov = run["provenance"]
+        found = next((j for j, c in enumerate(conditions) if not differences(c, prov)), None)
+        if found is None:
+            conditions.append(prov)
+            found = len(conditions) - 1
+        state[(run["source"], run["run_id"])] = found
+    unknown = [r for r in data.rows if (r["source"], r["run_id"]) not in state]
+    if not recorded:
+        line = "Provenance: not recorded (rows written before dcmppi recorded it, or without it)"
+        return line, ["## Provenance", "", line[len("Provenance: ") :].capitalize() + "."], ""
+    latest = recorded[-1]["provenance"]
+    libs = ", ".join(f"{k} {v}" for k, v in latest["libraries"].items() if v)
+    machine = f"{latest['cpu']} ({latest['cores']} cores)"
+    line = f"Provenance: {short(latest)}; {libs}; {machine}"
+    md = ["## Provenance", ""]
+    for run in data.runs:
+        prov = run["provenance"]
+        started = _when(run["started"])
+        ended = _when(run["ended"]) if run["ended"] else "not ended (running or killed)"
+        text = f"- {name[(run['source'], run['run_id'])]}: {started} to {ended}, "
+        text += f"{run['episodes']} episodes; "
+        if prov is None:
+            md.append(text + "provenance not recorded")
+            continue
+        files = "; ".join(
+            f"{what} {entry['path']} sha256 {entry['sha256'][:12]}"
+            for what, entry in prov["files"].items()
+        )
+        libs_i = ", ".join(f"{k} {v}" for k, v in prov["libraries"].items() if v)
+        md.append(
+            text + f"{short(prov)}; {libs_i}; {prov['cpu']} ({prov['cores']} cores) on "
+            f"{prov['host']}" + (f"; files: {files}" if files else "")
+        )
+    md += [
+        "",
+        "Resolved parameters of the latest run (defaults included; the seed varies per "
+        f"environment): task {latest['task']['name']} `{_canonical(latest['task']['params'])}`",
+    ]
+    md += [f"- `{label}` ({row['controller']}): `{_canonical(row['params'])}`"
+           for label, row in latest["rows"].items()]  # fmt: skip
+    if len(conditions) + bool(unknown) <= 1:
+        return line, md, ""
+    what = differences(conditions[0], conditions[-1]) if len(conditions) > 1 else []
+    mixed = (
+        f"**Mixed**: these rows were recorded under {len(conditions) + bool(unknown)} different "
+        "conditions (a run extended the database with --allow-mixed"
+        + (f"; rows before provenance was recorded: {len(unknown)}" if unknown else "")
+        + ")"
+        + (f": {'; '.join(what[:3])}" if what else "")
+        + ". The versions per row:"
+    )
+    per_row = {}
+    for r in data.rows:
+        key = (r["noise"], r["label"])
+        run = (r["source"], r["run_id"])
+        per_row.setdefault(key, {}).setdefault(run, 0)
+        per_row[key][run] += 1
+    by_run = {(run["source"], run["run_id"]): run["provenance"] for run in data.runs}
+    table_lines = ["| Noise | Row | Runs: code (episodes) |", "|---|---|---|"]
+    for noise, label in groups(data.rows, data.exp):
+        cells = [
+            f"{name.get(run, 'no run')}: {short(by_run.get(run))} ({count})"
+            for run, count in sorted(per_row[(noise, label)].items(), key=str)
+        ]
+        table_lines.append(f"| {noise} | {label} | {'; '.join(cells)} |")
+    return line, md, mixed + "\n\n" + "\n".join(table_lines)
+
+
+def _when(t: float) -> str:
+    return datetime.datetime.fromtimestamp(t).strftime("%Y-%m-%d %H:%M")
+
+
+def errors_section(rows: list[dict]) -> list[str]:
+    """report.md's list of the error rows, grouped by error and traceback; [] without."""
+    errors = [r for r in rows if r["status"] == "error"]
+    if not errors:
+        return []
+    by = {}
+    for r in errors:
+        by.setdefault((r["error"], r["traceback"]), []).append(r)
+    md = ["## Errors", "", f"{len(errors)} episodes ended in an error (rerun to run them again):"]
+    for (error, trace), group in by.items():
+        keys = ", ".join(f"{r['noise']}/{r['label']}/{r['env_index']}" for r in group)
+        md += ["", f"- {len(group)} x `{error}` in {keys}"]
+        if trace:
+            md += ["", "```", trace.rstrip("\n"), "```"]
+    return md
+
+
+def write_report(db_paths, out_dir: str | Path, plots: bool = True, gallery: int = 0) -> str:
     """Write report.md, episodes.csv and the PNG plots into out_dir; return the text shown
-    on the terminal (notice, table, diagnostics)."""
-    rows, exp, writer, config = load(db_path)
+    on the terminal (notices, tables, provenance).
+
+    db_paths: a database, or a list of databases of one configuration (shards), merged.
+    gallery: with N > 0, the first N failures of each row and one success are replayed into
+      GIFs (dcmppi.bench.replay.gallery) linked from report.md beside the row's numbers.
+    """
+    data = load(db_paths)
+    rows, exp, config = data.rows, data.exp, data.config
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     with open(out / "episodes.csv", "w", newline="") as f:
-        writer_csv = csv.DictWriter(f, fieldnames=COLUMN_NAMES)
+        writer_csv = csv.DictWriter(f, fieldnames=TABLE_COLUMNS, extrasaction="ignore")
         writer_csv.writeheader()
         writer_csv.writerows(rows)
-    warning = notice(rows, exp, writer)
+    prov_line, prov_md, mixed = provenance(data)
+    conflicts = ""
+    if data.conflicts:
+        shown = ", ".join(data.conflicts[:5])
+        more = f" and {len(data.conflicts) - 5} more" if len(data.conflicts) > 5 else ""
+        conflicts = (
+            f"**Conflicting databases**: {len(data.conflicts)} episodes are recorded with "
+            f"different results in two of them (the first database's row is used): {shown}{more}"
+        )
+    warning = "\n\n".join(p for p in (notice(rows, exp, data.writers), conflicts, mixed) if p)
     scores = score_table(rows, exp)
     metrics = metrics_table(rows, exp)
+    n_errors = sum(r["status"] == "error" for r in rows)
+    errors_line = (
+        f"{n_errors} episodes ended in errors: their messages and tracebacks are listed in "
+        "report.md (Errors)"
+        if n_errors
+        else ""
+    )
     text = "\n\n".join(
         part
-        for part in (warning, table(rows, exp), metrics, scores, diagnostics_table(rows, exp))
+        for part in (
+            warning,
+            table(rows, exp),
+            metrics,
+            scores,
+            diagnostics_table(rows, exp),
+            errors_line,
+            prov_line,
+        )
         if part
     )
+    links = None
+    if gallery > 0:
+        from dcmppi.bench.replay import gallery as replay_gallery
+
+        found = replay_gallery(data.paths, out, gallery)
+        links = {
+            key: " ".join(f"[{index} {outcome}]({gif})" for index, outcome, gif in clips)
+            for key, clips in found.items()
+        }
     ref = f"the reference row `{exp.reference}`" if exp.reference else "no reference row"
+    sources = ", ".join(f"`{p}`" for p in data.paths)
     md = [
         f"# dcmppi report: {exp.name} ({exp.task})",
         "",
         *([exp.description, ""] if exp.description else []),
+        *(
+            [f"Merged from {len(data.paths)} databases: {sources}.", ""]
+            if len(data.paths) > 1
+            else []
+        ),
         *([warning, ""] if warning else []),
-        table(rows, exp),
+        table(rows, exp, links),
         "",
         "Failure = any outcome but the goal (collision, left map, time limit). Intervals: 95 % "
         f"Wilson score. McNemar: exact two-sided test on collisions against {ref}, over the "
         "environments both rows finished; 'a vs b discordant' counts environments where only "
-        f"this row / only the reference collided. Paper figures in parentheses. {exp.paper_note}",
+        f"this row / only the reference collided. Paper figures in parentheses. {exp.paper_note}"
+        + (
+            " Replays: GIFs of the first failures of each row and one success (environment, "
+            "outcome)."
+            if links is not None
+            else ""
+        ),
         "",
         "## Navigation metrics",
         "",
@@ -333,12 +566,16 @@ def write_report(db_path: str | Path, out_dir: str | Path, plots: bool = True) -
         "",
         speed_table(rows, exp),
         "",
+        *([*errors_section(rows), ""] if n_errors else []),
+        *prov_md,
+        "",
         f"Configuration: `{config}`",
     ]
-    if plots:
+    finished = [r for r in rows if r["status"] == "ok"]
+    if plots and finished:  # rows of errors only get no plot
         from dcmppi.bench import plots as plotting
 
-        for name in plotting.report_plots(rows, exp, out):
+        for name in plotting.report_plots(finished, exp, out):
             md += ["", f"![{name}]({name})"]
     (out / "report.md").write_text("\n".join(md) + "\n")
     return text

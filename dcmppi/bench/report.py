@@ -457,7 +457,8 @@ def errors_section(rows: list[dict]) -> list[str]:
         by.setdefault((r["error"], r["traceback"]), []).append(r)
     md = ["## Errors", "", f"{len(errors)} episodes ended in an error (rerun to run them again):"]
     for (error, trace), group in by.items():
-        keys = ", ".join(f"{r['noise']}/{r['label']}/{r['env_index']}" for r in group)
+        keys = ", ".join(f"{r['noise']}/{r['label']}/{r['env_index']}" for r in group[:20])
+        keys += f" and {len(group) - 20} more" if len(group) > 20 else ""
         md += ["", f"- {len(group)} x `{error}` in {keys}"]
         if trace:
             md += ["", "```", trace.rstrip("\n"), "```"]

@@ -181,12 +181,12 @@ class ResultsDB:
         database (a read-only directory, an archived WAL database), it reads a temporary copy
         of the database and its -wal file, or without them the file as immutable."""
         uri = self.path.resolve().as_uri()
-        db = sqlite3.connect(f"{uri}?mode=ro", uri=True, timeout=TIMEOUT)
         try:
+            db = sqlite3.connect(f"{uri}?mode=ro", uri=True, timeout=TIMEOUT)
             db.execute("SELECT name FROM sqlite_master").fetchall()
             return db
         except sqlite3.OperationalError:
-            db.close()
+            pass
         wal = Path(f"{self.path}-wal")
         if wal.is_file() and wal.stat().st_size:
             self._copy = tempfile.TemporaryDirectory(prefix="dcmppi-db-")
@@ -203,8 +203,8 @@ class ResultsDB:
         message, where = str(e), self.path.resolve().parent
         if "readonly" in message or "read-only" in message:
             fix = (
-                "make it (and its -wal, -shm files and directory) writable, or pass a new --db; "
-                "`dcmppi report` reads it as it is"
+                "it is read-only: make it (its -wal, -shm files and directory too) writable, or "
+                "pass a new --db; `dcmppi report` reads it as it is"
             )
         elif "full" in message:
             fix = "free space on that disk and rerun to resume (finished episodes are saved)"

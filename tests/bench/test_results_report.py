@@ -2,6 +2,7 @@
 
 import math
 import os
+import re
 import subprocess
 
 import numpy as np
@@ -243,3 +244,203 @@ def test_a_complete_database_gets_no_notice(tmp_path):
     assert not text.startswith("**")
     line = next(x for x in text.splitlines() if "| clustered |" in x)
     assert "| 2 | 50.0 | 1 (6) | 50.0 [" in line and "0 vs 0 discordant of 2, p = 1 |" in line
+
+
+def _complete_db(path, labels=("mppi", "clustered"), envs=range(2), result=None):
+    exp = load_experiment("static").select(2, labels, ("none",))
+    db = ResultsDB(path, exp.config())
+    db.begin_run(exp.to_dict())
+    for label in labels:
+        for i in envs:
+            db.record(("none", label, i), _spec(label), result or _result("goal"))
+    db.end_run()
+    db.close()
+
+
+def _read_only(monkeypatch):
+    """Open every database for writing as SQLite opens a file without write permission (the
+    tests run as any user, root included)."""
+    import sqlite3
+
+    connect = sqlite3.connect
+
+    def read_only(target, *args, **kwargs):
+        if not kwargs.get("uri"):
+            target, kwargs["uri"] = f"{os.path.abspath(target)}?mode=ro", True
+            target = "file:" + target
+        return connect(target, *args, **kwargs)
+
+    monkeypatch.setattr(sqlite3, "connect", read_only)
+
+
+def test_a_read_only_database_ends_in_one_line_even_for_a_no_op_resume(tmp_path, monkeypatch):
+    from dcmppi.bench.results import StorageError
+
+    path = tmp_path / "r.db"
+    _complete_db(path)
+    _read_only(monkeypatch)
+    exp = load_experiment("static").select(2, ("mppi", "clustered"), ("none",))
+    with pytest.raises(StorageError) as e:
+        db = ResultsDB(path, exp.config())
+        db.begin_run(exp.to_dict())  # nothing to run, but the run is recorded
+    message = str(e.value)
+    assert "\n" not in message and "read-only" in message and "new --db" in message
+
+
+def test_a_full_disk_ends_in_one_line_and_keeps_the_rows(tmp_path):
+    from dcmppi.bench.results import StorageError
+
+    path = tmp_path / "r.db"
+    db = ResultsDB(path, CONFIG)
+    db.record(("none", "mppi", 0), _spec(), _result("goal"))
+    pages = db._db.execute("PRAGMA page_count").fetchone()[0]
+    db._db.execute(f"PRAGMA max_page_count = {pages}")  # SQLite's own "disk is full"
+    big = {**_result("goal"), "trace": os.urandom(100_000)}
+    with pytest.raises(StorageError) as e:
+        db.record(("none", "mppi", 1), _spec(), big)
+    message = str(e.value)
+    assert "\n" not in message and "disk is full" in message and "rerun to resume" in message
+    db.close()
+    assert [r["env_index"] for r in ResultsDB(path).rows()] == [0]
+
+
+def test_a_directory_sqlite_cannot_write_in_ends_in_one_line(tmp_path, monkeypatch):
+    import sqlite3
+
+    from dcmppi.bench.results import StorageError
+
+    def cannot_open(*args, **kwargs):
+        raise sqlite3.OperationalError("unable to open database file")
+
+    monkeypatch.setattr(sqlite3, "connect", cannot_open)
+    with pytest.raises(StorageError) as e:
+        ResultsDB(tmp_path / "r.db", CONFIG)
+    assert "\n" not in str(e.value) and "writable" in str(e.value)
+
+
+@pytest.mark.parametrize("wal", [True, False])
+def test_reports_read_where_sqlite_cannot_open_its_side_files(tmp_path, monkeypatch, wal):
+    """A read-only directory or an archived WAL database: mode=ro cannot open -shm/-wal. The
+    report reads a copy (with the -wal file's rows) or the file as immutable."""
+    import shutil
+    import sqlite3
+
+    from dcmppi.bench.report import write_report
+
+    live = tmp_path / "live"
+    live.mkdir()
+    _complete_db(live / "r.db")
+    if wal:  # rows only in the -wal file, as when a running database is archived
+        db = sqlite3.connect(live / "r.db")
+        db.execute("PRAGMA wal_autocheckpoint = 0")
+        db.execute("UPDATE episodes SET outcome = 'collision', collision = 1, failure = 1")
+        db.commit()
+        archive = tmp_path / "archive"
+        archive.mkdir()
+        shutil.copy(live / "r.db", archive / "r.db")
+        shutil.copy(live / "r.db-wal", archive / "r.db-wal")
+        db.close()
+    else:
+        archive = live
+    connect = sqlite3.connect
+
+    def no_side_files(target, *args, **kwargs):
+        if str(archive) in str(target) and "mode=ro" in str(target):
+            raise sqlite3.OperationalError("unable to open database file")
+        return connect(target, *args, **kwargs)
+
+    monkeypatch.setattr(sqlite3, "connect", no_side_files)
+    write_report(archive / "r.db", tmp_path / "out", plots=False)
+    rows = (tmp_path / "out" / "episodes.csv").read_text().splitlines()
+    assert len(rows) == 5
+    assert all(("collision" if wal else "goal") in row for row in rows[1:])
+    assert sorted(p.name for p in archive.iterdir()) == ["r.db"] + (["r.db-wal"] if wal else [])
+
+
+def test_a_report_of_error_rows_has_no_nan_and_lists_the_tracebacks(tmp_path):
+    from dcmppi.bench.report import write_report
+
+    error = {"error": "ZeroDivisionError: boom", "traceback": "Traceback\n  line 3\nZeroDiv"}
+    _complete_db(tmp_path / "e.db", result=error)
+    text = write_report(tmp_path / "e.db", tmp_path / "out", plots=True)
+    md = (tmp_path / "out" / "report.md").read_text()
+    assert not re.search(r"\bnan\b", text) and not re.search(r"\bnan\b", md)
+    assert "| none | mppi | 0 (+2 errors) | - |" in md
+    keys = "none/clustered/0, none/clustered/1, none/mppi/0, none/mppi/1"
+    assert "## Errors" in md and f"- 4 x `ZeroDivisionError: boom` in {keys}" in md
+    assert "```\nTraceback\n  line 3\nZeroDiv\n```" in md
+    assert not list((tmp_path / "out").glob("*.png"))  # no empty plots
+
+
+def test_a_row_keeps_the_final_pose_and_the_trace(tmp_path):
+    import zlib
+
+    trace = zlib.compress(np.arange(9, dtype="<f4").tobytes())
+    db = ResultsDB(tmp_path / "r.db", CONFIG)
+    db.record(
+        ("none", "mppi", 3),
+        _spec(),
+        {**_result("goal"), "final_pose": [1.0, 2.0, -0.5], "trace": trace},
+    )
+    db.close()
+    db = ResultsDB(tmp_path / "r.db")
+    row = db.row("none", "mppi", 3)
+    assert (row["final_x"], row["final_y"], row["final_theta"]) == (1.0, 2.0, -0.5)
+    assert np.frombuffer(zlib.decompress(row["trace"]), "<f4").tolist() == list(range(9))
+    assert db.row("none", "mppi", 4) is None
+    assert "trace" not in db.rows()[0]  # the table's rows leave the traces out
+
+
+def test_shards_merge_into_one_report(tmp_path):
+    from dcmppi.bench.report import write_report
+
+    _complete_db(tmp_path / "a.db", envs=[0])
+    _complete_db(tmp_path / "b.db", envs=[1])
+    text = write_report([tmp_path / "a.db", tmp_path / "b.db"], tmp_path / "out", plots=False)
+    assert not text.startswith("**")  # complete: 2 environments per row
+    line = next(x for x in text.splitlines() if "| clustered |" in x)
+    assert "| none | clustered | 2 | 100.0 |" in line
+    md = (tmp_path / "out" / "report.md").read_text()
+    assert "Merged from 2 databases" in md
+
+
+def test_shards_with_different_results_or_configurations_are_named(tmp_path):
+    from dcmppi.bench.report import write_report
+
+    _complete_db(tmp_path / "a.db", envs=[0, 1])
+    _complete_db(tmp_path / "b.db", envs=[1], result=_result("collision"))
+    text = write_report([tmp_path / "a.db", tmp_path / "b.db"], tmp_path / "out", plots=False)
+    assert "**Conflicting databases**: 2 episodes are recorded with different results" in text
+    assert "none/clustered/1 (outcome goal in a.db, collision in b.db)" in text
+    other = tmp_path / "c.db"
+    exp = load_experiment("static").select(1, ("mppi",), ("none",)).with_params({}, {"K": 64})
+    db = ResultsDB(other, exp.config())
+    db.begin_run(exp.to_dict())
+    db.record(("none", "mppi", 0), _spec(), _result("goal"))
+    db.close()
+    with pytest.raises(ValueError) as e:
+        write_report([tmp_path / "a.db", other], tmp_path / "out", plots=False)
+    assert "\n" not in str(e.value) and "different configurations (controller_params" in str(
+        e.value
+    )
+
+
+def test_the_gallery_is_linked_beside_the_rows(tmp_path, monkeypatch):
+    import sys
+    import types
+
+    from dcmppi.bench.report import write_report
+
+    _complete_db(tmp_path / "g.db")
+    calls = []
+
+    def gallery(db_paths, out_dir, n):
+        calls.append((list(db_paths), n))
+        return {("none", "mppi"): [(1, "collision", "gallery/mppi-1.gif")]}
+
+    monkeypatch.setitem(sys.modules, "dcmppi.bench.replay", types.SimpleNamespace(gallery=gallery))
+    write_report(tmp_path / "g.db", tmp_path / "out", plots=False, gallery=2)
+    assert calls == [([tmp_path / "g.db"], 2)]
+    md = (tmp_path / "out" / "report.md").read_text()
+    line = next(x for x in md.splitlines() if x.startswith("| none | mppi |"))
+    assert line.endswith("| [1 collision](gallery/mppi-1.gif) |")

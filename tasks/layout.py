@@ -4,7 +4,12 @@ CSV: one cylinder per line, columns `x,y,radius` or `world,x,y,radius` (the BARN
 format); an optional header line names the columns; blank lines and lines starting with `#`
 are skipped. JSON: {"cylinders": [[x, y, radius], ...], "start": [x, y, yaw],
 "goal": [x, y], "map_bounds": [xmin, ymin, xmax, ymax], "time_limit": seconds}, all keys but
-"cylinders" optional. Task kwargs override what the file says.
+"cylinders" optional. Task kwargs override what the file says. Files are UTF-8 (a byte-order
+mark, as Excel writes, is skipped); coordinates and radii are at most MAX_COORDINATE in size.
+
+A layout no controller could drive is refused when the task is built, naming the file and line
+of the cause: a start or goal outside the map, a robot touching a cylinder at its start, a goal
+inside a cylinder (`worlds.impossible`).
 
 BARN (Perille et al. 2020, MIT licence): pass world=N (0-299). Start, goal and time limit then
 default to the challenge's protocol (BARN_START, BARN_GOAL, BARN_TIME_LIMIT) and the task gives
@@ -30,17 +35,21 @@ BARN_TIME_LIMIT = 100.0
 BARN_TOP_SPEED = 2.0  # [m/s] Clearpath Jackal; the challenge's optimal_time = length / 2 m/s
 BARN_ENV = "DCMPPI_BARN"  # environment variable naming the BARN file
 BOUNDS_MARGIN = 2.0  # [m] added around cylinders, start and goal when no bounds are given
+MAX_COORDINATE = worlds.MAX_COORDINATE  # [m]
 
 
 @dataclasses.dataclass(frozen=True)
 class LayoutFile:
-    """What a layout file holds: cylinders (K, 3) and optional start, goal, bounds, limit."""
+    """What a layout file holds: cylinders (K, 3) and optional start, goal, bounds, limit;
+    `lines` (K,) the line of each cylinder, `where` {key: line} of start, goal, map_bounds."""
 
     cylinders: np.ndarray
     start: tuple | None = None
     goal: tuple | None = None
     map_bounds: tuple | None = None
     time_limit: float | None = None
+    lines: tuple = ()
+    where: dict = dataclasses.field(default_factory=dict)
 
 
 def barn_path() -> pathlib.Path:
@@ -68,9 +77,11 @@ def read_layout(path, world=None) -> LayoutFile:
     """
     path = pathlib.Path(path)
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8-sig")
     except OSError as e:
         raise ValueError(f"{path}: cannot read layout file ({e.strerror})") from None
+    except UnicodeDecodeError as e:
+        raise ValueError(f"{path}: not a UTF-8 text file ({e.reason} at byte {e.start})") from None
     if path.suffix.lower() == ".json":
         if world is not None:
             raise ValueError(
@@ -78,29 +89,31 @@ def read_layout(path, world=None) -> LayoutFile:
                 "a JSON layout holds one world"
             )
         return _read_json(path, text)
-    columns, data = _parse_csv(str(path), text)
+    columns, data, lines = _parse_csv(str(path), text)
     if columns[0] != "world":
         if world is not None:
             raise ValueError(f"{path}: world={world} given but the file has no 'world' column")
-        return LayoutFile(data)
+        return LayoutFile(data, lines=tuple(lines))
     if world is None:
         raise ValueError(
             f"{path}: the file holds several worlds; pass world=N "
             f"({int(data[:, 0].min())}..{int(data[:, 0].max())})"
         )
-    chosen = data[data[:, 0] == world, 1:]
+    mine = data[:, 0] == world
+    chosen = data[mine, 1:]
     if not len(chosen):
         raise ValueError(
             f"{path}: no cylinders for world {world}; the file has worlds "
             f"{int(data[:, 0].min())}..{int(data[:, 0].max())}"
         )
-    return LayoutFile(chosen)
+    return LayoutFile(chosen, lines=tuple(lines[mine]))
 
 
 @functools.lru_cache(maxsize=4)
 def _parse_csv(path, text):
-    """Column names and rows (read-only array) of a CSV layout; cached (BARN is 79k lines)."""
-    columns, rows = None, []
+    """Column names, rows (read-only array) and the line of each row (array) of a CSV layout;
+    cached (BARN is 79k lines)."""
+    columns, rows, lines = None, [], []
     for lineno, row in enumerate(csv.reader(text.splitlines()), start=1):
         cells = [c.strip() for c in row]
         if not any(cells) or cells[0].startswith("#"):
@@ -124,15 +137,21 @@ def _parse_csv(path, text):
         for name, cell in zip(columns, cells, strict=True):
             if not _is_number(cell) or not math.isfinite(float(cell)):
                 raise ValueError(f"{path}:{lineno}: {name} must be a finite number, got {cell!r}")
+            if abs(float(cell)) > MAX_COORDINATE:
+                raise ValueError(f"{path}:{lineno}: {name} {_TOO_BIG}, got {cell}")
             values.append(float(cell))
         if values[-1] <= 0:
             raise ValueError(f"{path}:{lineno}: radius must be > 0, got {cells[-1]}")
         rows.append(values)
+        lines.append(lineno)
     if not rows:
         raise ValueError(f"{path}: no cylinders in the file")
-    data = np.array(rows)
-    data.flags.writeable = False
-    return columns, data
+    data, lines = np.array(rows), np.array(lines)
+    data.flags.writeable = lines.flags.writeable = False
+    return columns, data, lines
+
+
+_TOO_BIG = f"must be within {MAX_COORDINATE:.0e} m of 0 (the planners' range)"
 
 
 def _read_json(path, text):
@@ -146,29 +165,39 @@ def _read_json(path, text):
     if unknown:
         raise ValueError(f"{path}: unknown keys {sorted(unknown)}")
     lines = text.splitlines()
-    cylinders = []
+    cylinders, cylinder_lines = [], []
     for i, item in enumerate(spec["cylinders"] if isinstance(spec["cylinders"], list) else [None]):
-        where = f"{path}:{_line_of(lines, i)}: cylinders[{i}]"
+        line = _line_of(lines, i)
+        where = f"{path}:{line}: cylinders[{i}]"
         if not _numbers(item, 3):
             raise ValueError(f"{where} must be [x, y, radius] numbers, got {item!r}")
         if item[2] <= 0:
             raise ValueError(f"{where}: radius must be > 0, got {item[2]}")
+        if max(abs(v) for v in item) > MAX_COORDINATE:
+            raise ValueError(f"{where}: each value {_TOO_BIG}, got {item!r}")
         cylinders.append(item)
+        cylinder_lines.append(line)
     if not cylinders:
         raise ValueError(f"{path}: no cylinders in the file")
-    out = {}
+    out, where = {}, {}
     for key, size in (("start", 3), ("goal", 2), ("map_bounds", 4), ("time_limit", None)):
         if key in spec:
             value = spec[key]
+            line = next((n for n, t in enumerate(lines, 1) if f'"{key}"' in t), None)
+            at = f"{path}:{line}" if line else str(path)
             ok = _numbers([value], 1) and value > 0 if size is None else _numbers(value, size)
             if not ok:
                 raise ValueError(
-                    f"{path}: {key} must be "
+                    f"{at}: {key} must be "
                     f"{'a positive number' if size is None else f'{size} numbers'}, "
                     f"got {value!r}"
                 )
+            if size is not None and max(abs(v) for v in value) > MAX_COORDINATE:
+                raise ValueError(f"{at}: {key}: each value {_TOO_BIG}, got {value!r}")
             out[key] = value if size is None else tuple(float(v) for v in value)
-    return LayoutFile(np.array(cylinders, dtype=np.float64), **out)
+            where[key] = line
+    cylinders = np.array(cylinders, dtype=np.float64)
+    return LayoutFile(cylinders, **out, lines=tuple(cylinder_lines), where=where)
 
 
 def _line_of(lines, index):
@@ -216,16 +245,19 @@ class Layout(navigation.Navigation):
             raise ValueError(f"world must be an int (a BARN world index), got {world!r}")
         if path is None and world is None:
             raise ValueError("layout needs path=<CSV or JSON file> or world=<BARN world index>")
-        layout = read_layout(barn_path() if path is None else path, world)
+        path = barn_path() if path is None else pathlib.Path(path)
+        layout = read_layout(path, world)
         is_barn = world is not None
-        start = _pick("start", 3, start, layout.start, BARN_START if is_barn else None)
-        goal = _pick("goal", 2, goal, layout.goal, BARN_GOAL if is_barn else None)
+        origin = {}  # where each of start, goal, map_bounds came from, for the errors below
+        start = _pick("start", 3, origin, start, (path, layout), BARN_START if is_barn else None)
+        goal = _pick("goal", 2, origin, goal, (path, layout), BARN_GOAL if is_barn else None)
         if start is None or goal is None:
             raise ValueError(
                 "layout: pass start=(x, y, yaw) and goal=(x, y) in task_kwargs, or "
                 "put them in a JSON layout file"
             )
-        if map_bounds is None and layout.map_bounds is None:
+        bounds = _pick("map_bounds", 4, origin, map_bounds, (path, layout), None)
+        if bounds is None:
             points = np.vstack(
                 [
                     layout.cylinders[:, :2] - layout.cylinders[:, 2:],
@@ -233,11 +265,8 @@ class Layout(navigation.Navigation):
                     [start[:2], goal],
                 ]
             )
-            map_bounds = (
-                *(points.min(axis=0) - BOUNDS_MARGIN),
-                *(points.max(axis=0) + BOUNDS_MARGIN),
-            )
-        bounds = np.array(_pick("map_bounds", 4, map_bounds, layout.map_bounds, None))
+            bounds = (*(points.min(axis=0) - BOUNDS_MARGIN), *(points.max(axis=0) + BOUNDS_MARGIN))
+        bounds = np.array(bounds)
         if not (bounds[:2] < bounds[2:]).all():
             raise ValueError(
                 f"map_bounds must be (xmin, ymin, xmax, ymax) with min < max, got {tuple(bounds)}"
@@ -245,6 +274,7 @@ class Layout(navigation.Navigation):
         if self._time_limit is None:
             self._time_limit = layout.time_limit or (BARN_TIME_LIMIT if is_barn else None)
         self._world = worlds.make_world(start, goal, static=layout.cylinders, bounds=bounds)
+        _check_possible(self._world, self.robot_radius, path, layout, origin)
         self.num_static = len(self._world.static)
         self._bounds = bounds
         self._barn = is_barn
@@ -271,10 +301,20 @@ class Layout(navigation.Navigation):
         return self._world
 
 
-def _pick(name, size, *candidates):
-    """The first candidate given, checked to be `size` finite numbers."""
-    value = next((c for c in candidates if c is not None), None)
-    if value is None:
+def _pick(name, size, origin, given, file, default):
+    """The first of the task parameter `given`, the layout file's value (file = (path,
+    LayoutFile)) and `default` that is set, checked to be `size` finite numbers within
+    MAX_COORDINATE; origin[name] says where it came from (for `_check_possible`)."""
+    path, layout = file
+    in_file = getattr(layout, name)
+    if given is not None:
+        value, origin[name] = given, f"task parameter {name}"
+    elif in_file is not None:
+        line = layout.where.get(name)
+        value, origin[name] = in_file, f"{path}:{line}" if line else str(path)
+    elif default is not None:
+        value, origin[name] = default, f"the BARN {name}"
+    else:
         return None
     try:
         value = tuple(float(v) for v in value)
@@ -282,4 +322,24 @@ def _pick(name, size, *candidates):
         raise ValueError(f"{name} must be {size} numbers, got {value!r}") from None
     if len(value) != size or not all(math.isfinite(v) for v in value):
         raise ValueError(f"{name} must be {size} finite numbers, got {value!r}")
+    if max(abs(v) for v in value) > MAX_COORDINATE:
+        raise ValueError(f"{name}: each value {_TOO_BIG}, got {value!r}")
     return value
+
+
+def _check_possible(world, robot_radius, path, layout, origin):
+    """ValueError naming the file and line of the cause if no controller could drive `world`
+    (`worlds.impossible`): the cylinder's line, else where the start, goal or bounds came from."""
+    problem = worlds.impossible(world, robot_radius)
+    if problem is None:
+        return
+    reason, row = problem
+    if row is not None:
+        at = f"{path}:{layout.lines[row]}" if layout.lines else str(path)
+    else:
+        at = str(path)
+    names = [n for n in ("start", "goal", "map_bounds") if n in origin]
+    from_ = "; ".join(f"{n} from {origin[n]}" for n in names)
+    raise ValueError(
+        f"{at}: impossible layout: {reason} ({from_}); move the cylinder, the start or the goal"
+    )

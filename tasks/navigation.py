@@ -494,6 +494,12 @@ class Navigation(control.Task):
         world = self.generate_world(world_random)
         if world.static.shape != (self.num_static, 3) or world.moving.shape != (self.num_moving, 4):
             raise RuntimeError(f"{type(self).__name__} drew a world of the wrong size")
+        problem = worlds.impossible(world, self.robot_radius)
+        if problem is not None:
+            raise ValueError(
+                f"{type(self).__name__} drew an impossible world: {problem[0]}; change its task "
+                "parameters"
+            )
         self.world = world
         self._noise_random = np.random.RandomState(noise_seed)
         self._measurement_random = np.random.default_rng([noise_seed, MEASUREMENT_STREAM])

@@ -28,6 +28,7 @@ FOREST_CLUSTERS = 65
 FOREST_CYLINDERS_PER_CLUSTER = 4  # at most; each cluster has 1..this many cylinders
 FOREST_RADIUS_RANGE = (0.4, 1.6)  # [m] radii of the cylinders
 START_GOAL_CLEARANCE = 1.0  # [m] free space around the robot at start and goal
+MAX_COORDINATE = 1e6  # [m] |coordinate| and radius bound (the planners refuse states beyond it)
 BORDER = 2.0  # [m] start and goal keep this far from the map edge
 CROWD_SIZE = 100
 CROWD_START_CLEARANCE = 3.0  # [m] no moving obstacle surface this close to the start
@@ -163,6 +164,49 @@ def make_world(
         value.flags.writeable = False
         arrays[name] = value
     return World(**arrays, behavior=str(behavior), robot_visible=bool(robot_visible))
+
+
+def impossible(world: World, robot_radius: float) -> tuple[str, int | None] | None:
+    """Why `world` would score its controller unfairly, or None: a start or goal outside the
+    map, a robot that touches a static or moving cylinder at its start, a goal inside a static
+    cylinder (no controller could avoid the failure).
+
+    Returns:
+      (the reason, one line; the row of world.static involved, None if none).
+    """
+    start, goal, bounds = world.start[:2], world.goal, world.map_bounds
+    for name, point in (("start", start), ("goal", goal)):
+        if not ((bounds[:2] <= point).all() and (point <= bounds[2:]).all()):
+            return f"the {name} {_xy(point)} is outside the map {_xy(bounds)}", None
+    rows = np.flatnonzero(world.static[:, 2] > 0)
+    solid = world.static[rows]
+    if len(solid):
+        gap = clearance(start, solid, robot_radius)
+        if gap.min() <= 0:
+            i = int(np.argmin(gap))
+            return (
+                f"the robot (radius {robot_radius:g} m) at its start {_xy(start)} touches the "
+                f"cylinder {_xy(solid[i])}",
+                int(rows[i]),
+            )
+        inside = clearance(goal, solid, 0.0)
+        if inside.min() < 0:
+            i = int(np.argmin(inside))
+            return f"the goal {_xy(goal)} is inside the cylinder {_xy(solid[i])}", int(rows[i])
+    if len(world.moving):
+        gap = clearance(start, world.moving, robot_radius)
+        if gap.min() <= 0:
+            i = int(np.argmin(gap))
+            return (
+                f"the robot (radius {robot_radius:g} m) at its start {_xy(start)} touches moving "
+                f"obstacle {i} at {_xy(world.moving[i, :2])}",
+                None,
+            )
+    return None
+
+
+def _xy(values) -> str:
+    return "(" + ", ".join(f"{float(v):g}" for v in values) + ")"
 
 
 def pedestrian_obstacle_model(speed_mean, speed_std) -> np.ndarray:

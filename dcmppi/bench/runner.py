@@ -89,9 +89,10 @@ def controller_for(spec: EpisodeSpec):
 
 
 def check_specs(specs) -> None:
-    """Build the environment of the first spec and the controller of every distinct one, so
-    that a bad name, parameter or missing dependency fails before anything is recorded. A
-    shared parameter that none of the controllers takes is an error (a misspelt name)."""
+    """Build (and reset) the environment of the first spec and the controller of every distinct
+    one, so that a bad name, parameter, world or missing dependency fails before anything is
+    recorded. A shared parameter that none of the controllers takes is an error (a misspelt
+    name)."""
     from dcmppi.bench.plugins import accepted_params, resolve_controller
 
     first = {}
@@ -105,8 +106,10 @@ def check_specs(specs) -> None:
         prediction = {**shared, **spec.controller_params}.get("prediction")
         accepted = accepted_params(resolve_controller(spec.controller), shared["agent"], prediction)
         unused = set() if accepted is None else unused - accepted
-        if i == 0:
-            make_env(spec).close()
+        if i == 0:  # a world the task cannot draw (an impossible layout) fails here
+            env = make_env(spec)
+            env.reset()
+            env.close()
     if unused:
         names = ", ".join(dict.fromkeys(spec.controller for spec in first.values()))
         raise ValueError(

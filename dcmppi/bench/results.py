@@ -455,8 +455,8 @@ class ResultsDB:
             started = time.strftime("%Y-%m-%d %H:%M", time.localtime(other["started"]))
             print(
                 f"warning: {self.path} is also being written by pid {other['pid']} on "
-                f"{other['host']} (started {started}); both keep their rows, but episodes both "
-                "run are computed twice (split the work with --shard I/N)",
+                f"{other['host']} (started {started}); the rows of both are kept, an episode "
+                "both select runs twice (--shard I/N splits the work)",
                 file=sys.stderr,
             )
 

@@ -1,0 +1,68 @@
+"""The ideal robot's reachable set: open ground, a disc it cannot escape, one it can, walls."""
+
+import numpy as np
+import pytest
+
+from dcmppi.bench.experiments import load_experiment
+from dcmppi.bench.reachability import propagate, reach
+
+BOUNDS = np.array([0.0, 0.0, 10.0, 10.0])
+NO_STATIC = np.empty((0, 3))
+
+
+def run(tracks, radii, start=(1.0, 5.0), goal=(9.0, 5.0), static=NO_STATIC, steps=200):
+    """A 0.3 m disc at 1 m/s, control period 0.1 s, goal tolerance 1 m."""
+    tracks = list(tracks) if tracks is not None else [np.empty((0, 2))] * steps
+    return propagate(
+        np.array(start), np.array(goal), 1.0, BOUNDS, static, tracks, np.array(radii), 0.3,
+        1.0, 0.1,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("goal", [(9.0, 5.0), (6.0, 9.0), (1.0, 1.0)])
+def test_open_ground_takes_the_straight_line_at_top_speed(goal):
+    r = run(None, [], goal=goal)
+    distance = np.hypot(goal[0] - 1.0, goal[1] - 5.0) - 1.0
+    assert r.solvable and not r.unavoidable
+    assert distance / 1.02 - 0.1 <= r.time <= distance / 0.984 + 0.1
+
+
+def test_a_disc_rushing_in_from_close_by_cannot_be_escaped():
+    # 0.1 m beyond contact, closing at 5 m/s: no move of 0.1 m gets out of its way
+    x0 = 1.0 + 0.3 + 0.5 + 0.1
+    tracks = [np.array([[x0 - 5.0 * 0.1 * k, 5.0]]) for k in range(1, 30)]
+    r = run(tracks, [0.5])
+    assert r.unavoidable and not r.solvable and r.time == pytest.approx(0.1)
+
+
+def test_the_same_disc_from_afar_leaves_room_to_step_aside():
+    x0 = 8.0  # meets the robot's straight line after about 1.2 s: time to step 0.8 m aside
+    tracks = [np.array([[x0 - 5.0 * 0.1 * k, 5.0]]) for k in range(1, 200)]
+    assert run(tracks, [0.5]).solvable
+
+
+def test_a_wall_across_the_map_keeps_the_robot_short_of_the_goal_but_alive():
+    wall = np.array([[5.0, y, 0.3] for y in np.arange(0.0, 10.01, 0.4)])
+    r = run(None, [], static=wall, steps=150)
+    assert not r.solvable and not r.unavoidable and r.time is None
+    # the nearest centre: between two cylinders, 0.6 m from both, 0.2 m off the line
+    assert r.goal_distance == pytest.approx(4.0 + np.sqrt(0.6**2 - 0.2**2), abs=0.05)
+
+
+def test_a_gap_in_the_wall_is_found():
+    wall = np.array([[5.0, y, 0.3] for y in np.arange(0.0, 10.01, 0.4) if abs(y - 8.0) > 0.9])
+    r = run(None, [], static=wall, steps=300)
+    assert r.solvable and r.time > (8.0 - 1.0) / 1.02  # a detour through the gap at y = 8
+
+
+def test_a_task_whose_pedestrians_react_is_refused():
+    exp = load_experiment("corridor-visible")
+    with pytest.raises(ValueError, match="react to the robot .robot_visible."):
+        reach(exp.spec("none", "mppi", 0))
+
+
+@pytest.mark.slow
+def test_square_environment_zero_is_solvable_in_about_the_straight_time():
+    exp = load_experiment("square-orca")
+    r = reach(exp.spec("none", "dc-cv", 0))
+    assert r.solvable and 5.0 / 1.02 - 0.1 <= r.time <= 12.0

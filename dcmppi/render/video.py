@@ -383,6 +383,8 @@ def _font_scale(height: int) -> int:
 def _make_context(model, width, height, font):
     """A current GL context and MjrContext (font: a mjtFontScale), from MUJOCO_GL or a
     headless fallback."""
+    if _gl.problem is not None:  # the user's backend has no library (see _gl.choose_backend)
+        raise RenderError(f"offscreen rendering failed: {_gl.problem}")
     backend = os.environ.get("MUJOCO_GL", "")
     tried = [backend]
     if _gl.user_choice is None:  # we picked the backend, so we may try the others

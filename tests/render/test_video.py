@@ -1,5 +1,6 @@
 """Offscreen episode videos."""
 
+import os
 import subprocess
 import sys
 
@@ -91,6 +92,36 @@ def test_broken_backend_gives_one_clear_error(monkeypatch):
     env = tasks.load("blocked", {})
     with pytest.raises(video.RenderError, match="MUJOCO_GL='nonsense'.*apt-get install libegl1"):
         video.Renderer(env.physics.model.ptr, 64, 48)
+
+
+# MUJOCO_GL=osmesa on a machine whose OSMesa library cannot be loaded (made so if installed)
+NO_OSMESA = """
+import ctypes, sys
+load = ctypes.CDLL.__init__
+def refuse_osmesa(self, name, *args, **kwargs):
+    if "OSMesa" in str(name):
+        raise OSError(f"{name}: cannot open shared object file: No such file or directory")
+    load(self, name, *args, **kwargs)
+ctypes.CDLL.__init__ = refuse_osmesa
+from dcmppi import cli, tasks
+env = tasks.load("blocked", {"time_limit": 0.2})
+env.reset(), env.step([0.0])  # simulation works without the library
+sys.exit(cli.main(["run", "--task", "blocked", "--controller", "mppi", "--param", "K=16",
+                   "--task-param", "time_limit=0.2", "--video", sys.argv[1]]))
+"""
+
+
+def test_a_backend_without_its_library_ends_in_one_line_naming_the_package(tmp_path):
+    env = {**os.environ, "MUJOCO_GL": "osmesa"}
+    run = subprocess.run(
+        [sys.executable, "-c", NO_OSMESA, str(tmp_path / "clip.mp4")],
+        env=env, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert run.returncode == 2
+    assert run.stderr.count("\n") == 1, run.stderr
+    assert "MUJOCO_GL=osmesa needs the OSMesa library" in run.stderr
+    assert "apt-get install libosmesa6" in run.stderr
+    assert not (tmp_path / "clip.mp4").exists()
 
 
 def test_importing_dcmppi_does_not_import_mujoco():

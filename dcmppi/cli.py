@@ -7,10 +7,12 @@ imported like `python -m` would: from the current directory first, then the inst
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import sys
 import textwrap
+import traceback
 
 from dcmppi.control._malloc import tune_malloc
 from dcmppi.render import CAMERAS
@@ -91,17 +93,18 @@ def cmd_run(args) -> int:
         controller_params=_key_values(args.param, "--param"),
     )
     check_specs([spec])
-    if args.video:
-        from dcmppi.bench.runner import Episode
-        from dcmppi.render.recording import record_episode
-        from dcmppi.render.video import check_path
+    with _episode_errors():
+        if args.video:
+            from dcmppi.bench.runner import Episode
+            from dcmppi.render.recording import record_episode
+            from dcmppi.render.video import check_path
 
-        check_path(args.video)
-        result = record_episode(
-            Episode(spec), args.video, camera=args.camera, legend=not args.no_legend
-        )
-    else:
-        result = run_episode(spec)
+            check_path(args.video)
+            result = record_episode(
+                Episode(spec), args.video, camera=args.camera, legend=not args.no_legend
+            )
+        else:
+            result = run_episode(spec)
     if args.json:
         print(
             json.dumps(
@@ -127,6 +130,30 @@ def cmd_run(args) -> int:
     return 0
 
 
+class EpisodeFailed(Exception):
+    """An episode raised: a runtime error of a controller (exit 1), not bad input."""
+
+
+@contextlib.contextmanager
+def _episode_errors():
+    """Episodes run in this block: an exception raised in code outside dcmppi (a user's
+    controller, numpy, ...) or of a type other than dcmppi's one-line errors (ValueError,
+    RuntimeError, OSError) prints its traceback and becomes EpisodeFailed ("Type: message")."""
+    package = os.path.dirname(os.path.abspath(__file__)) + os.sep
+    try:
+        yield
+    except (KeyboardInterrupt, BrokenPipeError):
+        raise
+    except BaseException as e:  # noqa: BLE001 - SystemExit of a controller included
+        frames = traceback.extract_tb(e.__traceback__)[1:]
+        ours = all(os.path.abspath(f.filename).startswith(package) for f in frames)
+        if ours and isinstance(e, (ValueError, RuntimeError, OSError)):
+            raise
+        traceback.print_exc()
+        message = f"{type(e).__name__}: {e}" if str(e) else type(e).__name__
+        raise EpisodeFailed(f"the episode raised {message}") from None
+
+
 def cmd_compare(args) -> int:
     from dcmppi.bench.runner import Episode, EpisodeSpec, check_specs
     from dcmppi.render.recording import compare
@@ -148,14 +175,15 @@ def cmd_compare(args) -> int:
         for controller in controllers
     ]
     check_specs(specs)
-    results = compare(
-        [Episode(spec) for spec in specs],
-        args.video,
-        camera=args.camera,
-        width=args.width,
-        height=args.height,
-        legend=not args.no_legend,
-    )
+    with _episode_errors():
+        results = compare(
+            [Episode(spec) for spec in specs],
+            args.video,
+            camera=args.camera,
+            width=args.width,
+            height=args.height,
+            legend=not args.no_legend,
+        )
     for spec, result in zip(specs, results, strict=True):
         print(
             f"{spec.controller:10s} {result['outcome']:10s} {result['steps']:5d} steps, "
@@ -195,7 +223,34 @@ def cmd_figure(args) -> int:
     return 0
 
 
+def _shard(text: str | None) -> tuple[int, int]:
+    """--shard I/N as (I, N), 0 <= I < N; None: (0, 1), everything."""
+    if text is None:
+        return 0, 1
+    i, sep, n = text.partition("/")
+    try:
+        shard = int(i), int(n)
+    except ValueError:
+        shard = (-1, 0)
+    if not sep or not 0 <= shard[0] < shard[1]:
+        raise ValueError(
+            f"--shard expects I/N with 0 <= I < N (environments with index % N == I), got "
+            f"{text!r}; e.g. --shard $SLURM_ARRAY_TASK_ID/4 in a SLURM array of 4 (0-3)"
+        )
+    return shard
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM: stops a bench like Ctrl-C."""
+
+
+def _terminate(signum, frame):
+    raise _Terminated()
+
+
 def cmd_bench(args) -> int:
+    import itertools
+    import signal
     import time
     from pathlib import Path
 
@@ -210,50 +265,71 @@ def cmd_bench(args) -> int:
     exp = exp.with_params(
         _key_values(args.task_param, "--task-param"), _key_values(args.param, "--param")
     )
+    shard = _shard(args.shard)
     if args.workers < 1:
         raise ValueError(f"--workers must be >= 1, got {args.workers}")
-    specs = exp.specs()
+    if args.episode_timeout is not None and not args.episode_timeout > 0:
+        raise ValueError(f"--episode-timeout must be > 0 seconds, got {args.episode_timeout}")
+    # one environment's episodes hold every row and noise; the others are made as they run
+    first = [
+        spec for _, spec in itertools.islice(exp.specs(shard), len(exp.noises) * len(exp.labels))
+    ]
     try:
-        check_specs([spec for _, spec in specs])
+        check_specs(first)
     except ValueError as e:
         raise ValueError(f"experiment {exp.name}: {e}") from e
     db_path = Path(args.db or f"results/{exp.name}.db")
     db_path.parent.mkdir(parents=True, exist_ok=True)
     db = ResultsDB(db_path, exp.config())
-    wanted = {key for key, _ in specs}
-    before = len(db.done() & wanted)
+    total = exp.count(shard)
+    before = sum(exp.wants(key, shard) for key in db.done())
+    of = f", shard {shard[0]}/{shard[1]} of them" if shard[1] > 1 else ""
     print(
-        f"{exp.name}: {len(specs)} episodes ({exp.episodes} environments x "
+        f"{exp.name}: {total} episodes ({exp.episodes} environments{of} x "
         f"{len(exp.noises)} noise x {len(exp.labels)} rows), {before} already in {db_path}, "
-        f"{len(specs) - before} to run on {args.workers} {args.executor} worker(s)",
+        f"{total - before} to run on {args.workers} {args.executor} worker(s)",
         file=sys.stderr,
     )
     start = time.monotonic()
+    previous = signal.signal(signal.SIGTERM, _terminate)
     try:
         bar = run_experiment(
-            exp, db, args.workers, args.executor, args.ray_address, not args.no_progress
+            exp,
+            db,
+            args.workers,
+            args.executor,
+            args.ray_address,
+            not args.no_progress,
+            shard=shard,
+            timeout=args.episode_timeout,
         )
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as e:
         print(
             f"\ninterrupted: finished episodes are saved in {db_path}; rerun to resume",
             file=sys.stderr,
         )
-        return 130
+        return 128 + signal.SIGTERM if isinstance(e, _Terminated) else 130
     finally:
-        rows = [r for r in db.rows() if (r["noise"], r["label"], r["env_index"]) in wanted]
+        signal.signal(signal.SIGTERM, previous)
+        rows = [r for r in db.rows() if exp.wants((r["noise"], r["label"], r["env_index"]), shard)]
         db.close()
     errors = [r for r in rows if r["status"] == "error"]
     print(
-        f"{exp.name}: {len(rows) - len(errors)} of {len(specs)} episodes in {db_path}; this run "
+        f"{exp.name}: {len(rows) - len(errors)} of {total} episodes in {db_path}; this run "
         f"{bar.done} episodes, {bar.failures} failed, {bar.errors} errors, "
         f"{time.monotonic() - start:.0f} s\n"
         f"the table: dcmppi report --db {db_path} --out report"
     )
     if errors:
-        first = errors[0]
+        shown = 10
+        lines = [
+            f"  {r['label']} {r['noise']} environment {r['env_index']}: {r['error']}"
+            for r in errors[:shown]
+        ]
+        if len(errors) > shown:
+            lines.append(f"  ... and {len(errors) - shown} more (dcmppi report lists them)")
         print(
-            f"{len(errors)} episode(s) raised errors, e.g. {first['label']} "
-            f"{first['noise']} environment {first['env_index']}: {first['error']}\n"
+            f"{len(errors)} episode(s) ended in errors:\n" + "\n".join(lines) + "\n"
             f"they are recorded as errors in {db_path}; fix the cause and rerun to run them again",
             file=sys.stderr,
         )
@@ -396,6 +472,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ray-address", help="address of an existing Ray cluster")
     params(p, f"{shared}; part of the configuration", f"{task_param}; part of the configuration")
     p.add_argument("--db", help="SQLite results file (default: results/EXPERIMENT.db)")
+    p.add_argument(
+        "--shard",
+        metavar="I/N",
+        help="run only the environments with index %% N == I (0 <= I < N): N jobs fill one "
+        "database or N that `dcmppi report` merges, e.g. I = $SLURM_ARRAY_TASK_ID",
+    )
+    p.add_argument(
+        "--episode-timeout",
+        type=float,
+        metavar="S",
+        help="record an episode still running after S seconds as a timeout error and go on",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress line")
 
     p = command("report", "tables, CSV and plots of a results database", cmd_report)
@@ -447,6 +535,9 @@ def _main(argv: list[str]) -> int:
         return args.func(args)
     except BrokenPipeError:
         raise
+    except EpisodeFailed as e:
+        print(f"dcmppi {args.command}: error: {e}", file=sys.stderr)
+        return 1
     except (ValueError, RuntimeError, OSError) as e:
         print(f"dcmppi {args.command}: error: {e}", file=sys.stderr)
         return 2

@@ -1,20 +1,31 @@
-"""Run many episodes into a results database: in-process, a local process pool, or Ray.
+"""Run many episodes into a results database: local worker processes or Ray.
 
 Episodes are independent and fully seeded, so the executor and the worker count change
 only the order in which rows arrive, never their contents. Only the calling process
 writes the database, one committed row per finished episode.
 
-The pool's and Ray's worker processes tune glibc's malloc for the controllers' per-step
-temporaries (`dcmppi.control._malloc.tune_malloc`) before their first episode; an in-process
-run (one local worker) leaves the calling process's malloc as it is.
+Every episode runs in a worker process (with one worker too), so nothing an episode does ends
+the bench: an exception (SystemExit included) is an error row with its traceback; a worker that
+dies (a segfault, the OOM killer, a controller's `os.kill`) is the error row "worker died
+(signal N)" of the episode it held, and a fresh worker takes its place; an episode still running
+after `timeout` seconds is killed and recorded as a timeout. Local workers ignore Ctrl-C (the
+parent stops them at once) and exit with their parent, even a SIGKILLed one
+(PR_SET_PDEATHSIG on Linux, a parent-pid watchdog thread elsewhere).
+
+Workers tune glibc's malloc for the controllers' per-step temporaries
+(`dcmppi.control._malloc.tune_malloc`) before their first episode.
 """
 
 from __future__ import annotations
 
+import itertools
 import os
+import signal
 import sys
+import threading
 import time
-from collections.abc import Iterable
+import traceback
+from collections.abc import Iterable, Iterator
 
 from dcmppi.bench.results import ResultsDB
 from dcmppi.bench.runner import EpisodeSpec, run_episode
@@ -22,14 +33,19 @@ from dcmppi.control._malloc import tune_malloc
 
 EXECUTORS = ("local", "ray")
 _SINGLE_THREAD = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+_PR_SET_PDEATHSIG = 1
 
 
 def run_safely(spec: EpisodeSpec) -> dict:
-    """`run_episode`, with any exception turned into {"error": "Type: message"}."""
+    """`run_episode`, with anything it raises but KeyboardInterrupt (SystemExit too) turned into
+    {"error": "Type: message", "traceback": text}."""
     try:
         return run_episode(spec)
-    except Exception as e:  # noqa: BLE001 - recorded, and the run goes on
-        return {"error": f"{type(e).__name__}: {e}"}
+    except KeyboardInterrupt:
+        raise
+    except BaseException as e:  # noqa: BLE001 - recorded, and the run goes on
+        message = f"{type(e).__name__}: {e}" if str(e) else type(e).__name__
+        return {"error": message, "traceback": traceback.format_exc()}
 
 
 class Progress:
@@ -67,73 +83,220 @@ def run_experiment(
     executor: str = "local",
     ray_address: str | None = None,
     progress: bool = True,
+    shard: tuple[int, int] = (0, 1),
+    timeout: float | None = None,
 ) -> Progress:
-    """Run the episodes of `exp` (a `dcmppi.bench.experiments.Experiment`) that `db` does not
-    hold yet. The database records the experiment's definition (for reports) and, while the
-    run lasts, that it is being written."""
+    """Run the episodes of `exp` (a `dcmppi.bench.experiments.Experiment`) in `shard` (i, n):
+    environments with index % n == i, that `db` does not hold yet. The database records the
+    experiment's definition (for reports) and, while the run lasts, that it is being written.
+    The episodes are made one by one as workers take them (`Experiment.specs` is lazy)."""
     done = db.done()
-    todo = [(key, spec) for key, spec in exp.specs() if key not in done]
+    held = sum(exp.wants(key, shard) for key in done)
+    todo = ((key, spec) for key, spec in exp.specs(shard) if key not in done)
+    first_environment = itertools.islice(exp.specs(shard), len(exp.noises) * len(exp.labels))
     db.begin_run(exp.to_dict())
     try:
-        return run_all(todo, db, workers, executor, ray_address, exp.name, progress)
+        return run_all(
+            todo,
+            db,
+            workers,
+            executor,
+            ray_address,
+            exp.name,
+            progress,
+            total=exp.count(shard) - held,
+            timeout=timeout,
+            plugins=plugin_names(spec for _, spec in first_environment),
+        )
     finally:
         db.end_run()
 
 
 def run_all(
-    todo: list[tuple[tuple, EpisodeSpec]],
+    todo: Iterable[tuple[tuple, EpisodeSpec]],
     db: ResultsDB,
     workers: int = 1,
     executor: str = "local",
     ray_address: str | None = None,
     label: str = "bench",
     progress: bool = True,
+    total: int | None = None,
+    timeout: float | None = None,
+    plugins: set[str] | None = None,
 ) -> Progress:
     """Run `todo` = [(key, spec)] and record each result in `db` as it finishes.
 
-    On KeyboardInterrupt, the episodes already finished are committed, pending ones are
-    cancelled and the interrupt is re-raised.
+    `total` is the number of episodes in `todo` (default: `len(todo)`), for the progress line;
+    `timeout` the seconds after which a running episode is killed and recorded as a timeout;
+    `plugins` the controller and predictor names of `todo` (`plugin_names`; Ray's workers get
+    their directories), default: read from `todo`, then a list.
+    On KeyboardInterrupt the workers are killed at once (the finished episodes are already
+    committed) and the interrupt is re-raised.
     """
     if executor not in EXECUTORS:
         raise ValueError(f"unknown executor {executor!r}; valid: {', '.join(EXECUTORS)}")
     if workers < 1:
         raise ValueError(f"--workers must be >= 1, got {workers}")
-    bar = Progress(len(todo), label, enabled=progress)
+    if timeout is not None and not timeout > 0:
+        raise ValueError(f"--episode-timeout must be > 0 seconds, got {timeout}")
+    bar = Progress(len(todo) if total is None else total, label, enabled=progress)
     if executor == "ray":
-        results = _ray(todo, workers, ray_address)
-    elif workers == 1:
-        results = ((key, spec, run_safely(spec)) for key, spec in todo)
+        if plugins is None:
+            plugins = plugin_names(spec for _, spec in todo)
+        results = _ray(todo, workers, ray_address, timeout, plugins)
     else:
-        results = _pool(todo, workers)
-    for key, spec, result in results:
-        db.record(key, spec, result)
-        bar.update(result)
+        results = _local(todo, workers, timeout)
+    try:
+        for key, spec, result in results:
+            db.record(key, spec, result)
+            bar.update(result)
+    finally:
+        results.close()  # stops the workers now, also on KeyboardInterrupt
     return bar
 
 
-def _pool(todo, workers) -> Iterable:
-    import concurrent.futures as cf
+def plugin_names(specs: Iterable[EpisodeSpec]) -> set[str]:
+    """The controller names and string `prediction` parameters of `specs`."""
+    names = set()
+    for spec in specs:
+        prediction = {**spec.shared_params, **spec.controller_params}.get("prediction")
+        names |= {spec.controller} | ({prediction} if isinstance(prediction, str) else set())
+    return names
+
+
+def timeout_error(timeout: float) -> dict:
+    return {"error": f"timeout: no result after {timeout:g} s (--episode-timeout)"}
+
+
+def death_error(exitcode: int | None) -> dict:
+    """The error row of an episode whose worker process ended with `exitcode` (negative: the
+    signal that killed it)."""
+    cause = (
+        f"signal {-exitcode}" if exitcode is not None and exitcode < 0 else f"exit code {exitcode}"
+    )
+    return {"error": f"worker died ({cause})"}
+
+
+class _Worker:
+    """A spawned worker process, its pipe and the episode it holds: job = (key, spec, started)."""
+
+    def __init__(self, ctx):
+        self.conn, child = ctx.Pipe()
+        self.proc = ctx.Process(target=_serve, args=(child, os.getpid()), daemon=True)
+        # blocked until the worker ignores it: a Ctrl-C is the parent's to handle
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            self.proc.start()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        child.close()
+        self.job = None
+
+    def give(self, job) -> None:
+        self.job = (*job, time.monotonic())
+        self.conn.send(job[1])
+
+    def stop(self) -> None:
+        """Ends the process: at once if it holds an episode, else after it read the stop."""
+        if self.job is None:
+            try:
+                self.conn.send(None)
+                self.proc.join(5.0)
+            except OSError:
+                pass
+        self.proc.kill()
+        self.proc.join()
+        self.conn.close()
+
+
+def _local(todo, workers: int, timeout: float | None) -> Iterator:
+    """(key, spec, result) of each episode of `todo` as it finishes, on `workers` processes."""
     import multiprocessing
+    from multiprocessing.connection import wait
 
     os.environ.update(_SINGLE_THREAD)  # inherited by the workers: no BLAS oversubscription
     ctx = multiprocessing.get_context("spawn")  # no inherited MuJoCo/GL state
-    pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker)
+    jobs = iter(todo)
+    pool: list[_Worker] = []
     try:
-        futures = {pool.submit(run_safely, spec): (key, spec) for key, spec in todo}
-        for future in cf.as_completed(futures):
-            key, spec = futures[future]
-            yield key, spec, future.result()
+        for job in jobs:
+            pool.append(_Worker(ctx))
+            pool[-1].give(job)
+            if len(pool) == workers:
+                break
+        while busy := [w for w in pool if w.job is not None]:
+            wait_s = None
+            if timeout is not None:
+                wait_s = max(0.0, min(w.job[2] for w in busy) + timeout - time.monotonic())
+            ready = set(wait([w.conn for w in busy] + [w.proc.sentinel for w in busy], wait_s))
+            for i, w in enumerate(pool):
+                if w.job is None:
+                    continue
+                result, stuck = None, False
+                if w.conn in ready or w.proc.sentinel in ready:
+                    try:
+                        result = w.conn.recv() if w.conn.poll() else None
+                    except (EOFError, OSError):
+                        pass
+                    if result is None:  # died while holding the episode
+                        w.proc.join()
+                        result = death_error(w.proc.exitcode)
+                elif timeout is not None and time.monotonic() - w.job[2] >= timeout:
+                    result, stuck = timeout_error(timeout), True
+                if result is None:
+                    continue
+                key, spec, _ = w.job
+                w.job = None
+                if stuck:
+                    w.proc.kill()
+                    w.proc.join()
+                yield key, spec, result
+                job = next(jobs, None)
+                if job is not None:
+                    if not w.proc.is_alive():  # a fresh process takes a dead or stuck one's place
+                        w.stop()
+                        w = pool[i] = _Worker(ctx)
+                    w.give(job)
     finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+        for w in pool:
+            w.stop()
 
 
-def _init_worker() -> None:
-    """A pool worker's setup: malloc tuned (see the module docstring), and Ctrl-C left to the
-    parent, which commits what finished and stops the workers."""
-    import signal
-
-    tune_malloc()
+def _serve(conn, parent: int) -> None:
+    """A worker's loop: run each spec received on `conn`, send back its result; None stops."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    _exit_with_parent(parent)
+    tune_malloc()
+    while True:
+        try:
+            spec = conn.recv()
+        except EOFError:
+            return
+        if spec is None:
+            return
+        conn.send(run_safely(spec))
+
+
+def _exit_with_parent(parent: int) -> None:
+    """This process ends when process `parent` does: SIGKILL from the kernel on Linux, and a
+    thread that watches the parent's pid (any platform, and a parent gone before the prctl)."""
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        try:
+            ctypes.CDLL(None).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
+        except (OSError, AttributeError):
+            pass
+
+    def watch():
+        while os.getppid() == parent:
+            time.sleep(1.0)
+        os._exit(1)
+
+    if os.getppid() != parent:
+        os._exit(1)
+    threading.Thread(target=watch, daemon=True).start()
 
 
 def _run_in_worker(spec: EpisodeSpec) -> dict:
@@ -142,7 +305,10 @@ def _run_in_worker(spec: EpisodeSpec) -> dict:
     return run_safely(spec)
 
 
-def _ray(todo, workers, address) -> Iterable:
+def _ray(todo, workers: int, address: str | None, timeout: float | None, plugins) -> Iterator:
+    """(key, spec, result) of each episode of `todo` as it finishes on Ray: `workers` episodes
+    in flight (on a cluster at least its CPU count). A task's time (`timeout`) counts from its
+    submission; a task that fails or whose worker dies is an error row (no retries)."""
     try:
         import ray
     except ImportError as e:
@@ -151,16 +317,16 @@ def _ray(todo, workers, address) -> Iterable:
         ) from e
     from dcmppi.bench.plugins import import_roots
 
+    jobs = iter(todo)
+    first = next(jobs, None)
+    if first is None:
+        return
     started = not ray.is_initialized()
     if started:
         # Ray's workers do not share this process's sys.path: hand them the directories of
         # package.module:ClassName controllers and predictors (on a cluster, the nodes must
         # have them too)
-        names = {spec.controller for _, spec in todo}
-        for _, spec in todo:
-            prediction = {**spec.shared_params, **spec.controller_params}.get("prediction")
-            names |= {prediction} if isinstance(prediction, str) else set()
-        roots = import_roots(names)
+        roots = import_roots(plugins)
         paths = roots + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
         env = {**_SINGLE_THREAD, **({"PYTHONPATH": os.pathsep.join(paths)} if roots else {})}
         kwargs = {"address": address} if address else {"num_cpus": workers}
@@ -170,15 +336,44 @@ def _ray(todo, workers, address) -> Iterable:
             log_to_driver=False,
             runtime_env={"env_vars": env},
         )
-    remote = ray.remote(max_retries=3, num_cpus=1)(_run_in_worker)
+    window = max(workers, int(ray.cluster_resources().get("CPU", 0))) if address else workers
+    remote = ray.remote(max_retries=0, num_cpus=1)(_run_in_worker)
     pending = {}
+
+    def submit(job):
+        pending[remote.remote(job[1])] = (*job, time.monotonic())
+
     try:
-        pending = {remote.remote(spec): (key, spec) for key, spec in todo}
+        submit(first)
+        for job in jobs:
+            submit(job)
+            if len(pending) == window:
+                break
         while pending:
-            ready, _ = ray.wait(list(pending), num_returns=1)
-            for ref in ready:
-                key, spec = pending.pop(ref)
-                yield key, spec, ray.get(ref)
+            wait_s = None
+            if timeout is not None:
+                oldest = min(t for _, _, t in pending.values())
+                wait_s = max(0.0, oldest + timeout - time.monotonic())
+            ready, _ = ray.wait(list(pending), num_returns=1, timeout=wait_s)
+            if ready:
+                ref = ready[0]
+                key, spec, _ = pending.pop(ref)
+                try:
+                    result = ray.get(ref)
+                except ray.exceptions.WorkerCrashedError:
+                    result = {"error": "worker died (Ray WorkerCrashedError)"}
+                except ray.exceptions.RayError as e:
+                    result = {"error": f"{type(e).__name__}: {e}".splitlines()[0]}
+                    result["traceback"] = str(e)
+            else:
+                ref = min(pending, key=lambda r: pending[r][2])
+                key, spec, _ = pending.pop(ref)
+                ray.cancel(ref, force=True)
+                result = timeout_error(timeout)
+            yield key, spec, result
+            job = next(jobs, None)
+            if job is not None:
+                submit(job)
     finally:
         for ref in pending:
             ray.cancel(ref, force=True)

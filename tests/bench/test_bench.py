@@ -5,6 +5,7 @@ fast; the logic under test does not depend on the sizes.
 """
 
 import dataclasses
+import multiprocessing
 import os
 import signal
 import sqlite3
@@ -84,7 +85,7 @@ def test_one_and_two_workers_give_identical_rows(tmp_path):
     exp = tiny(rows=USER_ROWS)
     one = run_into(tmp_path / "one.db", exp, workers=1)
     two = run_into(tmp_path / "two.db", exp, workers=2)
-    assert len(one) == len(exp.specs()) == 12
+    assert len(one) == exp.count() == 12
     assert all(r["status"] == "ok" for r in one)
     assert deterministic(one) == deterministic(two)
 
@@ -272,7 +273,7 @@ def test_bench_prints_a_summary_and_report_the_tables(tmp_path, capsys):
     assert cli.main(["report", "--db", str(db), "--out", str(out), "--no-plots"]) == 0
     text = capsys.readouterr().out
     assert "Partial" not in text and "Still being written" not in text
-    main, metrics, diagnostics = text.split("\n\n")
+    main, metrics, diagnostics = text.split("\n\n")[:3]  # then the provenance
     assert "| none | tube | 1 |" in main and "Collisions vs mppi: McNemar" in main
     assert "Success %" in metrics.splitlines()[0] and "| none | tube | 1 |" in metrics
     tube = next(line for line in diagnostics.splitlines() if "| tube |" in line)
@@ -316,8 +317,13 @@ def test_the_cli_and_the_bench_workers_tune_malloc_themselves(monkeypatch):
     monkeypatch.setattr(cli, "tune_malloc", lambda: calls.append("cli"))
     monkeypatch.setattr(execution, "tune_malloc", lambda: calls.append("worker"))
     monkeypatch.setattr(signal, "signal", lambda *args: None)  # keep pytest's Ctrl-C
+    monkeypatch.setattr(execution, "_exit_with_parent", lambda parent: None)
     assert cli.main(["tasks"]) == 0
-    execution._init_worker()  # the process pool's initializer
+    parent, worker = multiprocessing.Pipe()
+    parent.send(EpisodeSpec("no-such-task", "mppi"))
+    parent.send(None)
+    execution._serve(worker, os.getpid())  # a local worker's loop
+    assert "no-such-task" in parent.recv()["error"]
     result = execution._run_in_worker(EpisodeSpec("no-such-task", "mppi"))  # Ray's function
     assert "no-such-task" in result["error"]
     assert calls == ["cli", "worker", "worker"]

@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import importlib.resources
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 from typing import NamedTuple
 
@@ -153,17 +154,32 @@ class Experiment:
             shared_params=dict(self.controller_params),
         )
 
-    def specs(self) -> list[tuple[tuple[str, str, int], EpisodeSpec]]:
-        """(key, spec) for every selected episode, key = (noise, row label, env_index).
+    def specs(
+        self, shard: tuple[int, int] = (0, 1)
+    ) -> Iterator[tuple[tuple[str, str, int], EpisodeSpec]]:
+        """(key, spec) for every selected episode of `shard` (i, n): the environments whose
+        index % n == i; key = (noise, row label, env_index). Made one by one (an iterator).
 
         Ordered by environment first, so a partial run holds complete pairs.
         """
-        return [
-            ((noise, label, index), self.spec(noise, label, index))
-            for index in range(self.episodes)
-            for noise in self.noises
-            for label in self.labels
-        ]
+        for index in self.indices(shard):
+            for noise in self.noises:
+                for label in self.labels:
+                    yield (noise, label, index), self.spec(noise, label, index)
+
+    def indices(self, shard: tuple[int, int] = (0, 1)) -> range:
+        """The environments of `shard` (i, n): index % n == i."""
+        i, n = shard
+        return range(i, self.episodes, n)
+
+    def count(self, shard: tuple[int, int] = (0, 1)) -> int:
+        """The number of episodes `specs(shard)` yields."""
+        return len(self.indices(shard)) * len(self.noises) * len(self.labels)
+
+    def wants(self, key: tuple[str, str, int], shard: tuple[int, int] = (0, 1)) -> bool:
+        """Whether `specs(shard)` yields episode `key` = (noise, label, env_index)."""
+        noise, label, index = key
+        return noise in self.noises and label in self.labels and index in self.indices(shard)
 
     def select(
         self,

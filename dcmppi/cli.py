@@ -1,4 +1,5 @@
-"""The `dcmppi` command line: tasks, controllers, run, compare, figure, bench, report, timing.
+"""The `dcmppi` command line: tasks, controllers, run, compare, figure, bench, report, replay,
+timing.
 
 Controllers are named as `dcmppi controllers` lists them, or `package.module:ClassName`,
 imported like `python -m` would: from the current directory first, then the installed packages.
@@ -256,6 +257,7 @@ def cmd_bench(args) -> int:
 
     from dcmppi.bench.execution import run_experiment
     from dcmppi.bench.experiments import load_experiment
+    from dcmppi.bench.provenance import collect
     from dcmppi.bench.results import ResultsDB
     from dcmppi.bench.runner import check_specs
 
@@ -271,16 +273,14 @@ def cmd_bench(args) -> int:
     if args.episode_timeout is not None and not args.episode_timeout > 0:
         raise ValueError(f"--episode-timeout must be > 0 seconds, got {args.episode_timeout}")
     # one environment's episodes hold every row and noise; the others are made as they run
-    first = [
-        spec for _, spec in itertools.islice(exp.specs(shard), len(exp.noises) * len(exp.labels))
-    ]
+    first = list(itertools.islice(exp.specs(shard), len(exp.noises) * len(exp.labels)))
     try:
-        check_specs(first)
+        check_specs([spec for _, spec in first])
     except ValueError as e:
         raise ValueError(f"experiment {exp.name}: {e}") from e
     db_path = Path(args.db or f"results/{exp.name}.db")
     db_path.parent.mkdir(parents=True, exist_ok=True)
-    db = ResultsDB(db_path, exp.config())
+    db = ResultsDB(db_path, exp.config(), collect(exp, first), args.allow_mixed)
     total = exp.count(shard)
     before = sum(exp.wants(key, shard) for key in db.done())
     of = f", shard {shard[0]}/{shard[1]} of them" if shard[1] > 1 else ""
@@ -340,9 +340,25 @@ def cmd_bench(args) -> int:
 def cmd_report(args) -> int:
     from dcmppi.bench.report import write_report
 
-    print(write_report(args.db, args.out, plots=not args.no_plots))
+    if args.gallery < 0:
+        raise ValueError(f"--gallery must be >= 0, got {args.gallery}")
+    dbs = args.db or ["results/static.db"]
+    print(write_report(dbs, args.out, plots=not args.no_plots, gallery=args.gallery))
     print(f"\nwrote {args.out}/report.md and {args.out}/episodes.csv", file=sys.stderr)
     return 0
+
+
+def cmd_replay(args) -> int:
+    from dcmppi.bench.replay import replay
+
+    if args.video:
+        from dcmppi.render.video import check_path
+
+        check_path(args.video)
+    with _episode_errors():
+        found = replay(args.db, args.label, args.env, noise=args.noise, video=args.video)
+    print(found.message)
+    return 0 if found.reproduced else 1
 
 
 class _Help(argparse.ArgumentDefaultsHelpFormatter):
@@ -484,12 +500,44 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="S",
         help="record an episode still running after S seconds as a timeout error and go on",
     )
+    p.add_argument(
+        "--allow-mixed",
+        action="store_true",
+        help="extend a database recorded under another dcmppi version, resolved parameter or "
+        "input file (the report then shows the versions per row)",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress line")
 
     p = command("report", "tables, CSV and plots of a results database", cmd_report)
-    p.add_argument("--db", default="results/static.db", help="SQLite results file")
+    p.add_argument(
+        "--db",
+        action="append",
+        help="SQLite results file (default: results/static.db); repeat it to merge the "
+        "databases of one configuration (--shard runs)",
+    )
     p.add_argument("--out", default="report", help="output directory")
     p.add_argument("--no-plots", action="store_true", help="tables and CSV only")
+    p.add_argument(
+        "--gallery",
+        type=int,
+        default=0,
+        metavar="N",
+        help="replay the first N failures of each row and one success into GIFs linked from "
+        "report.md",
+    )
+
+    p = command(
+        "replay",
+        "rerun one recorded episode and say whether it reproduces its record (exit 1 if not)",
+        cmd_replay,
+    )
+    p.add_argument(
+        "--db", action="append", required=True, help="SQLite results file (repeatable: shards)"
+    )
+    p.add_argument("--label", required=True, help="the experiment's row")
+    p.add_argument("--env", type=int, required=True, help="the environment index")
+    p.add_argument("--noise", help="noise profile (default: the only one the row has there)")
+    p.add_argument("--video", metavar="PATH", help="also render the rerun to PATH (.mp4, .gif)")
 
     # `timing` parses its own options (dcmppi.bench.timing.main); listed here for --help.
     sub.add_parser(

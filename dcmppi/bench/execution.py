@@ -8,9 +8,9 @@ Every episode runs in a worker process (with one worker too), so nothing an epis
 the bench: an exception (SystemExit included) is an error row with its traceback; a worker that
 dies (a segfault, the OOM killer, a controller's `os.kill`) is the error row "worker died
 (signal N)" of the episode it held, and a fresh worker takes its place; an episode still running
-after `timeout` seconds is killed and recorded as a timeout. Local workers ignore Ctrl-C (the
-parent stops them at once) and exit with their parent, even a SIGKILLed one
-(PR_SET_PDEATHSIG on Linux, a parent-pid watchdog thread elsewhere).
+after `timeout` seconds is killed and recorded as a timeout. Local workers run in a session of
+their own (a Ctrl-C reaches the parent only, which kills them at once) and exit with their
+parent, even a SIGKILLed one (PR_SET_PDEATHSIG on Linux, a parent-pid watchdog thread).
 
 Workers tune glibc's malloc for the controllers' per-step temporaries
 (`dcmppi.control._malloc.tune_malloc`) before their first episode.
@@ -21,11 +21,13 @@ from __future__ import annotations
 import itertools
 import os
 import signal
+import subprocess
 import sys
 import threading
 import time
 import traceback
 from collections.abc import Iterable, Iterator
+from multiprocessing.connection import Connection, wait
 
 from dcmppi.bench.results import ResultsDB
 from dcmppi.bench.runner import EpisodeSpec, run_episode
@@ -178,49 +180,56 @@ def death_error(exitcode: int | None) -> dict:
 
 
 class _Worker:
-    """A spawned worker process, its pipe and the episode it holds: job = (key, spec, started)."""
+    """A worker process, its pipes and the episode it holds: job = (key, spec, started).
 
-    def __init__(self, ctx):
-        self.conn, child = ctx.Pipe()
-        self.proc = ctx.Process(target=_serve, args=(child, os.getpid()), daemon=True)
-        # blocked until the worker ignores it: a Ctrl-C is the parent's to handle
-        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    A fresh interpreter (no inherited MuJoCo/GL state, and unlike multiprocessing's spawn no
+    re-import of the caller's __main__) with this process's sys.path, in a session of its own:
+    a Ctrl-C at the terminal reaches only the parent, which stops it."""
+
+    def __init__(self):
+        inbox, to_worker = os.pipe()
+        from_worker, outbox = os.pipe()
+        code = (
+            f"import sys; sys.path[:] = {sys.path!r}; from dcmppi.bench.execution import _serve; "
+            f"_serve({inbox}, {outbox}, {os.getpid()})"
+        )
         try:
-            self.proc.start()
+            self.proc = subprocess.Popen(
+                [sys.executable, "-c", code], pass_fds=(inbox, outbox), start_new_session=True
+            )
         finally:
-            signal.pthread_sigmask(signal.SIG_SETMASK, old)
-        child.close()
+            os.close(inbox)
+            os.close(outbox)
+        self.inbox = Connection(to_worker, readable=False)
+        self.outbox = Connection(from_worker, writable=False)
         self.job = None
 
     def give(self, job) -> None:
         self.job = (*job, time.monotonic())
-        self.conn.send(job[1])
+        self.inbox.send(job[1])
 
     def stop(self) -> None:
         """Ends the process: at once if it holds an episode, else after it read the stop."""
         if self.job is None:
             try:
-                self.conn.send(None)
-                self.proc.join(5.0)
-            except OSError:
+                self.inbox.send(None)
+                self.proc.wait(5.0)
+            except (OSError, subprocess.TimeoutExpired):
                 pass
         self.proc.kill()
-        self.proc.join()
-        self.conn.close()
+        self.proc.wait()
+        self.inbox.close()
+        self.outbox.close()
 
 
 def _local(todo, workers: int, timeout: float | None) -> Iterator:
     """(key, spec, result) of each episode of `todo` as it finishes, on `workers` processes."""
-    import multiprocessing
-    from multiprocessing.connection import wait
-
     os.environ.update(_SINGLE_THREAD)  # inherited by the workers: no BLAS oversubscription
-    ctx = multiprocessing.get_context("spawn")  # no inherited MuJoCo/GL state
     jobs = iter(todo)
     pool: list[_Worker] = []
     try:
         for job in jobs:
-            pool.append(_Worker(ctx))
+            pool.append(_Worker())
             pool[-1].give(job)
             if len(pool) == workers:
                 break
@@ -228,19 +237,16 @@ def _local(todo, workers: int, timeout: float | None) -> Iterator:
             wait_s = None
             if timeout is not None:
                 wait_s = max(0.0, min(w.job[2] for w in busy) + timeout - time.monotonic())
-            ready = set(wait([w.conn for w in busy] + [w.proc.sentinel for w in busy], wait_s))
+            ready = wait([w.outbox for w in busy], wait_s)
             for i, w in enumerate(pool):
                 if w.job is None:
                     continue
                 result, stuck = None, False
-                if w.conn in ready or w.proc.sentinel in ready:
+                if w.outbox in ready:
                     try:
-                        result = w.conn.recv() if w.conn.poll() else None
-                    except (EOFError, OSError):
-                        pass
-                    if result is None:  # died while holding the episode
-                        w.proc.join()
-                        result = death_error(w.proc.exitcode)
+                        result = w.outbox.recv()
+                    except (EOFError, OSError):  # died while holding the episode
+                        result = death_error(w.proc.wait())
                 elif timeout is not None and time.monotonic() - w.job[2] >= timeout:
                     result, stuck = timeout_error(timeout), True
                 if result is None:
@@ -249,33 +255,33 @@ def _local(todo, workers: int, timeout: float | None) -> Iterator:
                 w.job = None
                 if stuck:
                     w.proc.kill()
-                    w.proc.join()
+                    w.proc.wait()
                 yield key, spec, result
                 job = next(jobs, None)
                 if job is not None:
-                    if not w.proc.is_alive():  # a fresh process takes a dead or stuck one's place
+                    if w.proc.poll() is not None:  # a fresh process takes a dead one's place
                         w.stop()
-                        w = pool[i] = _Worker(ctx)
+                        w = pool[i] = _Worker()
                     w.give(job)
     finally:
         for w in pool:
             w.stop()
 
 
-def _serve(conn, parent: int) -> None:
-    """A worker's loop: run each spec received on `conn`, send back its result; None stops."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+def _serve(inbox: int, outbox: int, parent: int) -> None:
+    """A worker's loop: run each spec read from file descriptor `inbox`, write its result to
+    `outbox`; None (or the parent closing the pipe) stops it."""
     _exit_with_parent(parent)
     tune_malloc()
+    specs, results = Connection(inbox, writable=False), Connection(outbox, readable=False)
     while True:
         try:
-            spec = conn.recv()
+            spec = specs.recv()
         except EOFError:
             return
         if spec is None:
             return
-        conn.send(run_safely(spec))
+        results.send(run_safely(spec))
 
 
 def _exit_with_parent(parent: int) -> None:

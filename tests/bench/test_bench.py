@@ -5,13 +5,13 @@ fast; the logic under test does not depend on the sizes.
 """
 
 import dataclasses
-import multiprocessing
 import os
 import signal
 import sqlite3
 import subprocess
 import sys
 import time
+from multiprocessing.connection import Connection
 
 import numpy as np
 import pytest
@@ -319,11 +319,14 @@ def test_the_cli_and_the_bench_workers_tune_malloc_themselves(monkeypatch):
     monkeypatch.setattr(signal, "signal", lambda *args: None)  # keep pytest's Ctrl-C
     monkeypatch.setattr(execution, "_exit_with_parent", lambda parent: None)
     assert cli.main(["tasks"]) == 0
-    parent, worker = multiprocessing.Pipe()
-    parent.send(EpisodeSpec("no-such-task", "mppi"))
-    parent.send(None)
-    execution._serve(worker, os.getpid())  # a local worker's loop
-    assert "no-such-task" in parent.recv()["error"]
+    inbox, to_worker = os.pipe()
+    from_worker, outbox = os.pipe()
+    with Connection(to_worker, readable=False) as specs:
+        specs.send(EpisodeSpec("no-such-task", "mppi"))
+        specs.send(None)
+    execution._serve(inbox, outbox, os.getpid())  # a local worker's loop
+    with Connection(from_worker, writable=False) as results:
+        assert "no-such-task" in results.recv()["error"]
     result = execution._run_in_worker(EpisodeSpec("no-such-task", "mppi"))  # Ray's function
     assert "no-such-task" in result["error"]
     assert calls == ["cli", "worker", "worker"]

@@ -1,0 +1,96 @@
+"""The command line around episodes: a controller's exception, and bench / report / replay over
+a user's controller module (`mine.py`, written to the test's folder, the current directory)."""
+
+import sys
+
+import pytest
+
+from dcmppi import cli
+from dcmppi.bench.results import ResultsDB
+
+MINE = """
+import sys
+
+import numpy as np
+
+
+class Steady:
+    def __init__(self, seed=None):
+        pass
+
+    def reset(self):
+        pass
+
+    def act(self, state, goal, static, moving, obstacle_model):
+        return np.array([0.1])
+
+
+class Raiser(Steady):
+    def act(self, *args):
+        return 1 / 0
+
+
+class Exiter(Steady):
+    def act(self, *args):
+        sys.exit(3)
+"""
+
+
+@pytest.fixture
+def mine(tmp_path, monkeypatch):
+    """The test's folder, holding `mine.py`, as the current directory and on sys.path."""
+    (tmp_path / "mine.py").write_text(MINE)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, "mine", raising=False)  # another test's folder's
+    return tmp_path
+
+
+@pytest.mark.parametrize("name, error", [("Raiser", "ZeroDivisionError: division by zero"),
+                                         ("Exiter", "SystemExit: 3")])  # fmt: skip
+def test_a_controllers_exception_is_a_runtime_error_with_its_type(mine, capsys, name, error):
+    """It used to be shown as bad input (exit 2, no type); SystemExit ended dcmppi itself."""
+    argv = ["run", "--task", "blocked", "--controller", f"mine:{name}"]
+    assert cli.main([*argv, "--task-param", "time_limit=1"]) == 1
+    err = capsys.readouterr().err
+    assert err.strip().splitlines()[-1] == f"dcmppi run: error: the episode raised {error}"
+    assert "Traceback" in err and "mine.py" in err
+
+
+def _bench(*options):
+    return cli.main(["bench", "--experiment", "small.toml", "--no-progress", *options])
+
+
+@pytest.mark.slow
+def test_shards_report_replay_and_a_mixed_resume(mine, capsys):
+    (mine / "small.toml").write_text(
+        'task = "blocked"\nepisodes = 3\ntask_params = { time_limit = 1.0 }\n'
+        '[[rows]]\ncontroller = "mine:Steady"\nlabel = "steady"\n'
+    )
+    assert _bench("--shard", "0/2", "--db", "a.db") == 0
+    assert _bench("--shard", "1/2", "--db", "b.db") == 0
+    assert [r["env_index"] for r in ResultsDB("a.db").rows()] == [0, 2]
+    capsys.readouterr()
+
+    report = ["report", "--db", "a.db", "--db", "b.db", "--out", "out", "--no-plots"]
+    assert cli.main([*report, "--gallery", "1"]) == 0
+    assert "| none | steady | 3 |" in capsys.readouterr().out  # the shards merged
+    gifs = list((mine / "out").rglob("*.gif"))
+    assert gifs and all(
+        gif.relative_to(mine / "out").as_posix() in (mine / "out" / "report.md").read_text()
+        for gif in gifs
+    )
+
+    replay = ["replay", "--db", "a.db", "--db", "b.db", "--label", "steady", "--env", "1"]
+    assert cli.main(replay) == 0
+    assert "time_limit" in capsys.readouterr().out
+    assert cli.main(["replay", "--db", "b.db", "--label", "steady", "--env", "2"]) == 2
+    assert "steady" in capsys.readouterr().err
+
+    with open("mine.py", "a") as f:  # the controller's module changes: its sha256 differs
+        f.write("# edited\n")
+    assert _bench("--shard", "0/2", "--db", "a.db", "--episodes", "5") == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert "--allow-mixed" in err[-1] and err[-1].startswith("dcmppi bench: error:")
+    assert _bench("--shard", "0/2", "--db", "a.db", "--episodes", "5", "--allow-mixed") == 0
+    assert [r["env_index"] for r in ResultsDB("a.db").rows()] == [0, 2, 4]

@@ -138,19 +138,22 @@ def task_kwargs(cls) -> list[str]:
     return names + [n for n in agent_param_names() if n not in names]
 
 
-def default_agent(name) -> str:
-    """The agent task `name` simulates unless task_kwargs say otherwise."""
+def task_class(name) -> type:
+    """The Task class of task `name` (its constructor's keywords are the task kwargs)."""
     if name not in SUITE:
         raise ValueError(f"unknown task {name!r}; valid tasks: {', '.join(TASKS)}")
-    return _CLASSES[name].default_agent
+    return _CLASSES[name]
+
+
+def default_agent(name) -> str:
+    """The agent task `name` simulates unless task_kwargs say otherwise."""
+    return task_class(name).default_agent
 
 
 def robot(name, kwargs=None) -> dict:
     """The robot task `name` simulates with task kwargs `kwargs`, its defaults included: {"agent",
     the agent's parameters (e.g. v_max), "robot_radius"}, what a planner must plan with."""
-    if name not in SUITE:
-        raise ValueError(f"unknown task {name!r}; valid tasks: {', '.join(TASKS)}")
-    task = _task(_CLASSES[name], kwargs)
+    task = _task(task_class(name), kwargs)
     return {"agent": task.agent.name, **task.agent.params, "robot_radius": task.robot_radius}
 
 
@@ -178,6 +181,7 @@ __all__ = [
     "default_agent",
     "load",
     "robot",
+    "task_class",
     "task_kwargs",
     "Navigation",
     "Physics",

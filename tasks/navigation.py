@@ -335,6 +335,13 @@ class Physics(dm_mujoco.Physics):
 
     # Readouts -------------------------------------------------------------------------------
 
+    @property
+    def obstacle_motion(self):
+        """The moving obstacles' own model (pedestrians.Pedestrians or worlds.DubinsObstacles;
+        None without any). Its `advance` moves them without the physics: where they ignore
+        the robot, stepping it alone gives the episode's future of them."""
+        return self._moving
+
     def robot_pose(self):
         """(3,) x, y, yaw of the robot, yaw wrapped to [-pi, pi)."""
         pose = self._qpos[:3].copy()

@@ -184,7 +184,7 @@ def task_params(spec, env_param: str | None = None) -> dict:
     per episode)."""
     from dcmppi import tasks
 
-    cls = tasks._CLASSES[spec.task]
+    cls = tasks.task_class(spec.task)
     params = {**_defaults(tasks.Navigation), **_defaults(cls)}
     params.update(spec.task_params)
     params.update(tasks.robot(spec.task, spec.task_params))

@@ -110,7 +110,7 @@ def _tracks(env, steps):
     """The moving obstacles' centres (L, 2) after each of `steps` control steps, one step at a
     time, stepped by their own model without the robot (which they ignore)."""
     physics, world = env.physics, env.task.world
-    moving = physics._moving
+    moving = physics.obstacle_motion
     n_sub = int(round(env.control_timestep() / physics.timestep()))
     far, still = np.array([1e6, 1e6]), np.zeros(2)
     for _ in range(steps):

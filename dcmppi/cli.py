@@ -481,9 +481,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--noise", help=f"comma-separated noise profiles (default: the experiment's): {c['noises']}"
     )
-    p.add_argument("--workers", type=int, default=1, help="episodes at a time")
     p.add_argument(
-        "--executor", default="local", choices=("local", "ray"), help="process pool or Ray"
+        "--workers", type=int, default=1, help="episodes at a time, each in a worker process"
+    )
+    p.add_argument(
+        "--executor", default="local", choices=("local", "ray"), help="worker processes or Ray"
     )
     p.add_argument("--ray-address", help="address of an existing Ray cluster")
     params(p, f"{shared}; part of the configuration", f"{task_param}; part of the configuration")

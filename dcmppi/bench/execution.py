@@ -131,7 +131,7 @@ def run_all(
     `total` is the number of episodes in `todo` (default: `len(todo)`), for the progress line;
     `timeout` the seconds after which a running episode is killed and recorded as a timeout;
     `plugins` the controller and predictor names of `todo` (`plugin_names`; Ray's workers get
-    their directories), default: read from `todo`, then a list.
+    their directories), default: read from `todo`.
     On KeyboardInterrupt the workers are killed at once (the finished episodes are already
     committed) and the interrupt is re-raised.
     """
@@ -144,6 +144,7 @@ def run_all(
     bar = Progress(len(todo) if total is None else total, label, enabled=progress)
     if executor == "ray":
         if plugins is None:
+            todo = list(todo)
             plugins = plugin_names(spec for _, spec in todo)
         results = _ray(todo, workers, ray_address, timeout, plugins)
     else:

@@ -142,6 +142,11 @@ class PeerProblem:
 
 def make_peer(ctrl, problem):
     """pytorch_mppi.MPPI configured as our controller `ctrl` (see the module docstring)."""
+    if isinstance(ctrl.lambda_, str):
+        raise ValueError(
+            f"pytorch_mppi has a fixed temperature; our controller's lambda_ is {ctrl.lambda_!r}: "
+            "build it with a number (e.g. lambda_=1.0)"
+        )
     torch, pytorch_mppi = require()
     dtype = problem.dtype
     bound = torch.tensor(ctrl.agent.upper, dtype=dtype)

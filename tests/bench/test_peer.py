@@ -104,3 +104,9 @@ def test_passing_names_the_first_cylinder_on_the_way_not_a_padding_row():
         phrase
         == "they pass the first obstacle on the way on its left (+2.000 m) and right (-2.000 m)"
     )
+
+
+def test_the_peer_needs_a_fixed_temperature():
+    ctrl = make_controller("mppi", seed=0, lambda_="auto")
+    with pytest.raises(ValueError, match="pytorch_mppi has a fixed temperature"):
+        peer.make_peer(ctrl, None)

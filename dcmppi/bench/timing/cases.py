@@ -25,6 +25,7 @@ CASES = (
     Case("mppi", "mppi", "forest", target_ms=0.2),
     Case("mppi tv", "mppi", "forest", TV, target_ms=0.3),
     Case("mppi mixed", "mppi", "forest", MIXED),
+    Case("mppi auto", "mppi", "forest", {"lambda_": "auto"}),  # the chosen temperature
     Case("clustered", "clustered", "forest", target_ratio=1.2),
     Case("tube", "tube", "forest", target_ratio=2.5),
     Case("tube", "tube", "forest+push", target_ratio=2.5),

@@ -114,7 +114,7 @@ def cmd_run(args) -> int:
                     "controller": spec.controller,
                     "noise": spec.noise,
                     "seed": spec.seed,
-                    **result,
+                    **{k: v for k, v in result.items() if k != "trace"},  # bytes: the database's
                 }
             )
         )

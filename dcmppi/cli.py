@@ -361,6 +361,28 @@ def cmd_replay(args) -> int:
     return 0 if found.reproduced else 1
 
 
+def cmd_reach(args) -> int:
+    from dcmppi.bench.experiments import load_experiment
+    from dcmppi.bench.reachability import summary, survey
+    from dcmppi.bench.results import ResultsDB
+
+    exp = load_experiment(args.experiment).select(args.episodes, None, None)
+    exp = exp.with_params(_key_values(args.task_param, "--task-param"), {})
+    rows = []
+    if args.db:
+        db = ResultsDB(args.db)
+        rows = db.rows()
+        db.close()
+
+    def progress(done, total):
+        if not args.no_progress:
+            end = "\n" if done == total else ""
+            print(f"\r[reach] {done}/{total} environments", end=end, file=sys.stderr, flush=True)
+
+    print(f"{exp.name}: " + summary(survey(exp, progress), rows))
+    return 0
+
+
 class _Help(argparse.ArgumentDefaultsHelpFormatter):
     """Shows an option's default unless it is None or False or the help gives it."""
 
@@ -540,6 +562,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--env", type=int, required=True, help="the environment index")
     p.add_argument("--noise", help="noise profile (default: the only one the row has there)")
     p.add_argument("--video", metavar="PATH", help="also render the rerun to PATH (.mp4, .gif)")
+
+    p = command(
+        "reach",
+        "which environments any controller could solve: an ideal robot's reachable set among "
+        "obstacles that ignore the robot",
+        cmd_reach,
+    )
+    p.add_argument("--experiment", default="square-orca", help=f"one of {c['experiments']}")
+    p.add_argument("--episodes", type=int, help="environments (default: the experiment's)")
+    p.add_argument("--task-param", action="append", metavar="NAME=VALUE", help=task_param)
+    p.add_argument("--db", help="a results database: split each row's collisions by them")
+    p.add_argument("--no-progress", action="store_true", help="no progress line")
 
     # `timing` parses its own options (dcmppi.bench.timing.main); listed here for --help.
     sub.add_parser(

@@ -94,3 +94,25 @@ def test_shards_report_replay_and_a_mixed_resume(mine, capsys):
     assert "--allow-mixed" in err[-1] and err[-1].startswith("dcmppi bench: error:")
     assert _bench("--shard", "0/2", "--db", "a.db", "--episodes", "5", "--allow-mixed") == 0
     assert [r["env_index"] for r in ResultsDB("a.db").rows()] == [0, 2, 4]
+
+
+@pytest.mark.slow
+def test_reach_counts_solvable_environments_and_splits_a_databases_collisions(tmp_path, capsys):
+    db = ResultsDB(tmp_path / "sq.db", {"x": 1})
+    spec = type("Spec", (), {"controller": "mppi", "task": "square", "seed": 0})()
+    spec.task_params = spec.controller_params = spec.shared_params = {}
+    db.record(("none", "mine", 0), spec, {"outcome": "collision", "collision": 1})
+    db.record(("none", "mine", 1), spec, {"outcome": "goal", "collision": 0})
+    db.close()
+    argv = ["reach", "--experiment", "square-orca", "--episodes", "2", "--no-progress"]
+    assert cli.main([*argv, "--db", str(tmp_path / "sq.db")]) == 0
+    out = capsys.readouterr().out
+    assert "square-orca: 2 environments: 2 solvable by the ideal robot" in out
+    assert "mine: 1 of 2 episodes collided, 0 of them where every controller collides" in out
+
+
+def test_reach_refuses_pedestrians_that_react(capsys):
+    argv = ["reach", "--experiment", "corridor-visible", "--episodes", "1", "--no-progress"]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "reachability needs robot_visible=false" in err[0]

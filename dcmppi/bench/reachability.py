@@ -143,3 +143,40 @@ def _dilate(R: np.ndarray, cells: float) -> np.ndarray:
 
 def _outside(X, Y, x, y, distance) -> np.ndarray:
     return (X - x) ** 2 + (Y - y) ** 2 > distance * distance
+
+
+def survey(exp, progress=None) -> dict[int, Reach]:
+    """`reach` of every environment of experiment `exp` (its first row and noise profile: the
+    obstacles' paths are the same for every row). progress(i, n) is called after each."""
+    noise, label = exp.noises[0], exp.labels[0]
+    found = {}
+    for n, i in enumerate(exp.indices(), start=1):
+        found[i] = reach(exp.spec(noise, label, i))
+        if progress:
+            progress(n, exp.episodes)
+    return found
+
+
+def summary(found: dict[int, Reach], rows=()) -> str:
+    """Lines: how many environments are solvable, unavoidable or neither; with `rows` (a
+    results database's episode rows), each label's collisions split by the environment's kind."""
+    n = len(found)
+    solvable = [r for r in found.values() if r.solvable]
+    unavoidable = sum(r.unavoidable for r in found.values())
+    times = sorted(r.time for r in solvable)
+    lines = [
+        f"{n} environments: {len(solvable)} solvable by the ideal robot"
+        + (f" (time to the goal region: median {times[len(times) // 2]:.1f} s)" if times else "")
+        + f", {unavoidable} where every controller collides, "
+        f"{n - len(solvable) - unavoidable} with no way to the goal in time"
+    ]
+    labels = sorted({r["label"] for r in rows})
+    for label in labels:
+        mine = [r for r in rows if r["label"] == label and r["env_index"] in found]
+        hit = [r for r in mine if r["status"] == "ok" and r["collision"]]
+        forced = sum(found[r["env_index"]].unavoidable for r in hit)
+        lines.append(
+            f"  {label}: {len(hit)} of {len(mine)} episodes collided, {forced} of them where "
+            f"every controller collides, {len(hit) - forced} avoidable"
+        )
+    return "\n".join(lines)

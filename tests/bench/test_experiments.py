@@ -70,10 +70,12 @@ def test_shipped_experiments_hold_the_papers_setup():
         )
         assert walking.row("dc-social").params == {"prediction": "social"}
     mismatch = load_experiment("corridor-mismatch")
+    assert mismatch.row("dc-ekf-walk").params["process_std"] == [0.01, 0.01, 0.3, 0.5, 1.0]
     assert mismatch.labels == (
         "mppi+margin",
         "dc",
         "dc-ekf",
+        "dc-ekf-walk",
         "dc-cv",
         "dc-social",
         "dc-social-blind",

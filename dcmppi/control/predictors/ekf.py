@@ -3,7 +3,8 @@
 Each obstacle's whole state (x, y, heading, speed, turn rate) is drawn P times from the
 posterior of a Gaussian-sum EKF (predictors.filter.ObstacleFilter): started from the population
 prior (obstacle_model) at the first step with obstacles, it takes the observed positions once
-per step (headings are not used), dt apart, with position noise std `measurement_std`. Obstacles
+per step (headings are not used), dt apart, with position noise std `measurement_std` and the
+random-walk process noise `process_std` (x, y, heading, speed, turn rate per sqrt(s)). Obstacles
 are matched by index; their number must stay the same until reset(). Each draw becomes a Dubins
 arc as in "prior".
 """
@@ -12,7 +13,7 @@ import dataclasses
 
 from ..validation import positive
 from .base import register_predictor
-from .filter import MEASUREMENT_STD, ObstacleFilter
+from .filter import MEASUREMENT_STD, PROCESS_STD, ObstacleFilter, check_process_std
 from .prior import SampledFutures, check_obstacle_model
 
 
@@ -20,13 +21,16 @@ from .prior import SampledFutures, check_obstacle_model
 class EKF(SampledFutures):
     """Sampled futures from a Gaussian-sum EKF per obstacle (module docstring).
 
-    Extra args: measurement_std: the obstacle sensor's position noise std [m] (> 0).
+    Extra args: measurement_std: the obstacle sensor's position noise std [m] (> 0);
+    process_std: (5,) the filter's random walk per sqrt(s) (default: filter.PROCESS_STD, the
+    crowd's near-exact Dubins model; pedestrians need more, design.md).
     """
 
-    own_params = ("measurement_std",)
+    own_params = ("measurement_std", "process_std")
 
-    def __init__(self, *, measurement_std=MEASUREMENT_STD, **shared):
+    def __init__(self, *, measurement_std=MEASUREMENT_STD, process_std=PROCESS_STD, **shared):
         self.measurement_std = positive("measurement_std", measurement_std)
+        self.process_std = check_process_std(process_std)
         super().__init__(**shared)
         self.filter = None
 
@@ -38,7 +42,9 @@ class EKF(SampledFutures):
         if len(moving) or self.filter is not None:  # starts at the first step with obstacles
             if self.filter is None:
                 model = check_obstacle_model(obstacle_model, self.name)
-                self.filter = ObstacleFilter(model, self.measurement_std, self.dt)
+                self.filter = ObstacleFilter(
+                    model, self.measurement_std, self.dt, process_std=self.process_std
+                )
             self.filter.update(moving[:, :2])
             posterior = self.filter.posterior()
         if len(moving) == 0:

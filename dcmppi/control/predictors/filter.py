@@ -27,9 +27,10 @@ not predict. When the heaviest component's normalised innovation nu^T S^-1 nu ex
 the obstacle's heading is spread over the bank again at the measured position, keeping its
 speed and turn-rate estimates from before that measurement.
 
-Process noise: a random walk of PROCESS_STD per sqrt(s) on every state. Between reflections the
-model is exact; the small noise keeps the covariances positive definite and lets a heading that
-is slightly off recover.
+Process noise: a random walk of `process_std` per sqrt(s) on every state (default PROCESS_STD).
+For the crowd's Dubins obstacles the model is exact between reflections; the small default
+keeps the covariances positive definite and lets a heading that is slightly off recover.
+Pedestrians swerve and change speed: their process noise must be larger (design.md).
 
 A component's weight stays at least exp(LOG_WEIGHT_FLOOR) times the heaviest one's (negligible,
 and never a subnormal number, whose arithmetic is slow).
@@ -106,6 +107,21 @@ def collapse(means, covs, log_weights):
     return mean, cov
 
 
+def check_process_std(value) -> tuple:
+    """process_std as 5 floats > 0 (x, y, heading, speed, turn rate per sqrt(s)), or one clear
+    ValueError."""
+    try:
+        std = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        std = np.full(1, np.nan)
+    if std.shape != (5,) or not (np.isfinite(std) & (std > 0)).all():
+        raise ValueError(
+            "process_std must be 5 finite numbers > 0 (x, y [m], heading [rad], speed [m/s], "
+            f"turn rate [rad/s], per sqrt(s)); got {value!r}"
+        )
+    return tuple(std.tolist())
+
+
 class ObstacleFilter:
     """Gaussian-sum EKF of L moving obstacles from their measured positions (module docstring).
 
@@ -114,11 +130,14 @@ class ObstacleFilter:
       measurement_std: std of each measured coordinate [m], > 0.
       dt: time between measurements [s].
       headings: components per obstacle (M).
+      process_std: (5,) random-walk std per sqrt(s) of x, y, heading, speed, turn rate, > 0.
     Attributes (after the first update): means (L, M, 5), covs (L, M, 5, 5) and log_weights
     (L, M) of the components (`posterior()`: the whole posterior's moments).
     """
 
-    def __init__(self, obstacle_model, measurement_std, dt, headings=HEADINGS):
+    def __init__(
+        self, obstacle_model, measurement_std, dt, headings=HEADINGS, process_std=PROCESS_STD
+    ):
         model = np.asarray(obstacle_model, dtype=float)
         if model.shape != (4,) or not np.isfinite(model).all() or model[1] < 0 or model[3] < 0:
             raise ValueError(
@@ -129,11 +148,13 @@ class ObstacleFilter:
             raise ValueError(f"measurement_std must be finite and > 0 m; got {measurement_std}")
         if not (np.isfinite(dt) and dt > 0) or not (isinstance(headings, int) and headings > 0):
             raise ValueError(f"dt must be > 0 and headings an int > 0; got {dt}, {headings}")
+        process_std = np.array(check_process_std(process_std))
         self.model = model
         self.measurement_std = float(measurement_std)
         self.dt = float(dt)
         self.headings = headings
-        self._Q = np.diag(PROCESS_STD**2 * self.dt)
+        self.process_std = process_std
+        self._Q = np.diag(process_std**2 * self.dt)
         self.means = self.covs = self.log_weights = None
 
     def __len__(self):

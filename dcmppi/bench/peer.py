@@ -4,8 +4,9 @@ Needs the optional extra `peer` (`pip install torch==2.13.0 pytorch-mppi`, or
 `pip install "dcmppi[peer]"`); torch and pytorch_mppi are imported only when it runs.
 
 The problem is built from our controller (`make_controller("mppi", seed=0,
-perturbation="time_varying")`, the defaults) and its closed loop on timing's forest (the forest
-task's generator, seed 0), so both planners see the same numbers. Identical in the two:
+perturbation="time_varying", K=K, N=N)`, the defaults otherwise; `--K`, `--N`, by default the
+paper's 500 and 50) and its closed loop on timing's forest (the forest task's generator, seed 0),
+so both planners see the same numbers. Identical in the two:
 - dynamics: the exact Dubins arc per control period, a = omega dt / 2, x += v dt sinc(a)
   cos(theta + a), y += v dt sinc(a) sin(theta + a), theta += 2 a, v = 1 m/s, dt = 0.1 s
   (`PeerProblem.dynamics`, equal to our agent's step to 1e-9, tests/bench/test_peer.py);
@@ -14,8 +15,8 @@ task's generator, seed 0), so both planners see the same numbers. Identical in t
   indexing: index = int(clip((x - origin) / resolution, 0, last cell))), not a disc test, so
   both pay the same conservative rasterised map; with the map's bounds (as timing passes them)
   its outer ring is occupied, so a state whose centre leaves the map costs alpha in both;
-- K = 500 samples, N = 50 steps, lambda = 1, Sigma = 0.1 (rad/s)^2 on omega (pytorch_mppi's
-  noise_sigma is the covariance), |omega| <= 1 rad/s (u_min, u_max);
+- K samples, N steps (num_samples, horizon), lambda = 1, Sigma = 0.1 (rad/s)^2 on omega
+  (pytorch_mppi's noise_sigma is the covariance), |omega| <= 1 rad/s (u_min, u_max);
 - time-varying perturbations: an independent N(0, Sigma) draw per sample and step;
 - controls clipped into the bounds, and the clipped perturbation eps = clip(U + noise) - U kept
   for the control cost and the update;

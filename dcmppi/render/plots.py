@@ -1,10 +1,13 @@
-"""The report's plots: failure rates, controller time, the paths of one environment.
+"""The report's plots: failure rates, controller time, the paths of one environment, and
+timing's cost curves.
 
 Each function takes numbers that dcmppi.bench computed (summaries, per-episode timings, paths)
 and returns a matplotlib Figure; `dcmppi.render.draw.save_figure` writes it.
 """
 
 from __future__ import annotations
+
+import math
 
 from dcmppi.render.draw import COLORS, draw_world, pyplot
 
@@ -86,3 +89,50 @@ def paths_figure(observation, paths: dict, title: str):
     ax.set_title(title)
     fig.tight_layout()
     return fig
+
+
+def scaling_figure(panels: dict, title: str):
+    """Log-log curves of ms per step against one size each: a panel per size.
+
+    panels: {x label: {"curves": {controller: (x list, ms list)}, "base": the paper's x or
+    None (a dotted vertical line)}}, in drawing order; an axis with x = 0 is drawn linear
+    below its smallest positive x (symlog).
+    """
+    plt = pyplot()
+    from matplotlib import ticker
+
+    columns = min(3, len(panels))
+    rows = -(-len(panels) // columns)
+    fig, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 3.4 * rows), squeeze=False)
+    for ax, (label, panel) in zip(axes.flat, panels.items(), strict=False):
+        xs = [x for x, _ in panel["curves"].values()]
+        positive = [v for x in xs for v in x if v > 0]
+        if min(v for x in xs for v in x) <= 0:
+            ax.set_xscale("symlog", linthresh=min(positive))
+        else:
+            ax.set_xscale("log")
+        ax.set_yscale("log")
+        ticks = sorted({v for x in xs for v in x})
+        ax.set_xticks(ticks, [f"{v:g}" for v in ticks])
+        ax.xaxis.set_minor_formatter(ticker.NullFormatter())
+        ax.yaxis.set_major_formatter(ticker.FuncFormatter(lambda v, _: f"{v:g}"))
+        ax.yaxis.set_minor_formatter(ticker.FuncFormatter(_two_five))
+        for c, (x, ms) in panel["curves"].items():
+            ax.plot(x, ms, "o-", ms=3, color=COLORS.get(c), label=c)
+        if panel["base"] is not None:
+            ax.axvline(panel["base"], color="k", ls=":", lw=1)
+        ax.set_xlabel(label)
+        ax.set_ylabel("ms per step")
+        ax.grid(True, which="both", lw=0.3)
+    for ax in axes.flat[len(panels) :]:
+        ax.set_visible(False)
+    axes.flat[0].legend(fontsize=8)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def _two_five(value, _):
+    """A minor log tick's label: plain (0.2, 50) at 2 and 5 times a power of ten, else none."""
+    digit = round(value / 10 ** math.floor(math.log10(value)))
+    return f"{value:g}" if digit in (2, 5) else ""

@@ -23,13 +23,18 @@ BLAS and OpenMP pools are limited to one thread; the figures are for one core. T
 problem run interleaved in blocks of consecutive steps, so load changes on a shared machine hit
 them alike.
 
+`--against pytorch_mppi [--K K] [--N N]` times our mppi beside pytorch_mppi on the forest at that
+size (dcmppi.bench.peer); `--scaling` the controllers as K, N, the cylinders, the moving obstacles
+and P grow one at a time (`scaling`).
+
 Modules: `worlds` (the problems), `cases` (the table's rows and the variants), `loop` (a timed
 closed loop, interleaved timing), `profile` (`--profile`, through the controllers' timer hook),
-`fingerprint` (`--fingerprint`), `cli` (the options and the table). Only the entry points (`main`,
-`python -m dcmppi.bench.timing`) tune malloc for the process. May import dcmppi.control, the
-tasks' world generators (dcmppi.tasks.worlds), their pedestrians and task classes (for the
-pedestrian problems' worlds and next goals) and dcmppi.bench.peer; nothing imports it but the
-command line.
+`fingerprint` (`--fingerprint`), `scaling` (`--scaling`: the curves, their fits and plot), `cli`
+(the options and the table). Only the entry points (`main`, `python -m dcmppi.bench.timing`) tune
+malloc for the process. May import dcmppi.control, the tasks' world generators
+(dcmppi.tasks.worlds), their pedestrians and task classes (for the pedestrian problems' worlds
+and next goals), dcmppi.bench.peer and dcmppi.render (the scaling plot, given plain numbers);
+nothing imports it but the command line.
 """
 
 from .cli import main

@@ -1,4 +1,5 @@
-"""The options of `dcmppi timing` and its table; `--against`, `--profile`, `--fingerprint`."""
+"""The options of `dcmppi timing` and its table; `--against`, `--profile`, `--fingerprint`,
+`--scaling`."""
 
 import argparse
 import json
@@ -10,21 +11,36 @@ from threadpoolctl import threadpool_limits
 from dcmppi.control import defaults
 from dcmppi.control._malloc import tune_malloc
 
-from . import cases
+from . import cases, scaling
 from .fingerprint import fingerprint, print_fingerprint
 from .loop import BLOCK, ClosedLoop, time_cases
 from .profile import print_profile, profile
 
+STEPS = 100  # control steps per case of the table, the profile, the fingerprint and --against
+# pytorch_mppi / ours wanted at a size (K, N) (issue 26)
+AGAINST_TARGETS = {(defaults.K, defaults.N): 14, (2048, 100): 12}
+
+
+class _Parser(argparse.ArgumentParser):
+    """An ArgumentParser whose errors are one line: "dcmppi timing: error: ..." (exit 2)."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+
 
 def main(argv=None):
     """Run the timing benchmark; print a table or JSON. Returns 0 (2: --against without its
-    packages)."""
-    parser = argparse.ArgumentParser(
+    packages, or --out unwritable)."""
+    parser = _Parser(
         prog="dcmppi timing",
         description="median controller time per control step on fixed problems",
     )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
-    parser.add_argument("--steps", type=int, default=100, help="control steps per case")
+    parser.add_argument(
+        "--steps",
+        type=int,
+        help=f"control steps per case (default {STEPS}; --scaling: {scaling.STEPS} per point)",
+    )
     parser.add_argument(
         "--block", type=int, default=BLOCK, help="consecutive steps of a case (1: cold caches)"
     )
@@ -33,6 +49,14 @@ def main(argv=None):
         choices=["pytorch_mppi"],
         help="time pytorch_mppi beside our mppi on the same problem (needs the extra `peer`)",
     )
+    parser.add_argument("--K", type=int, help=f"--against: samples per step (default {defaults.K})")
+    parser.add_argument("--N", type=int, help=f"--against: horizon steps (default {defaults.N})")
+    parser.add_argument(
+        "--scaling",
+        action="store_true",
+        help="ms per step of each controller as K, N, cylinders, moving obstacles and P grow",
+    )
+    parser.add_argument("--out", help="--scaling: write scaling.json and scaling.png here")
     parser.add_argument(
         "--profile", action="store_true", help="where one step's time goes, in microseconds"
     )
@@ -42,13 +66,29 @@ def main(argv=None):
         help="hash every closed loop's actions (identical before and after a speed change)",
     )
     args = parser.parse_args(argv)
+    if args.steps is None:
+        args.steps = scaling.STEPS if args.scaling else STEPS
     if args.steps < 5:
         parser.error("--steps must be >= 5")
     if args.block < 1:
         parser.error("--block must be >= 1")
+    for name in ("K", "N"):
+        value = getattr(args, name)
+        if value is None:
+            setattr(args, name, getattr(defaults, name))
+        elif not args.against:
+            parser.error(
+                f"--{name} sets the size of --against's problem: add --against pytorch_mppi"
+            )
+        elif not 1 <= value <= 100_000:
+            parser.error(f"--{name} must be a whole number in 1 .. 100000; got {value}")
+    if args.out and not args.scaling:
+        parser.error("--out is where --scaling writes its JSON and plot; add --scaling")
     tune_malloc()  # process-wide: only entry points set it
     if args.against:
         return against(args)
+    if args.scaling:
+        return scale(args)
     if args.profile:
         results = profile(cases.PROFILE_CASES, args.steps)
         if args.json:
@@ -117,7 +157,7 @@ def against(args):
     except ImportError as e:
         print(f"dcmppi timing: {e}", file=sys.stderr)
         return 2
-    ours = ClosedLoop("mppi", "forest", args.steps, perturbation="time_varying")
+    ours = ClosedLoop("mppi", "forest", args.steps, perturbation="time_varying", K=args.K, N=args.N)
     with threadpool_limits(1):
         result = peer.compare(ours, args.steps, args.block)
     if args.json:
@@ -132,9 +172,29 @@ def against(args):
     print(f"{'controller':<20} {'median ms':>9} {'p95 ms':>7}")
     for name, key in (("mppi (dcmppi)", "ours"), ("pytorch_mppi", "theirs")):
         print(f"{name:<20} {result[key]['median_ms']:9.3f} {result[key]['p95_ms']:7.3f}")
+    target = AGAINST_TARGETS.get((s["K"], s["N"]))
     print(
-        f"pytorch_mppi / ours = {result['theirs_over_ours']:.1f} (target >= 20), "
-        f"ours / pytorch_mppi = {result['ours_over_theirs']:.3f}"
+        f"pytorch_mppi / ours = {result['theirs_over_ours']:.1f}"
+        + (f" (target >= {target})" if target else "")
+        + f", ours / pytorch_mppi = {result['ours_over_theirs']:.3f}"
     )
     print(f"same problem: {result['same_problem']}")
+    return 0
+
+
+def scale(args):
+    """`--scaling`: print the curves (or the JSON); with --out also write its files."""
+    machine = f"{platform.processor() or platform.machine()}, python {platform.python_version()}"
+    report = scaling.run(args.steps, args.block, machine)
+    if args.json:
+        print(json.dumps(report, indent=2))
+    else:
+        scaling.print_scaling(report)
+    if args.out:
+        try:
+            paths = scaling.write(report, args.out)
+        except (OSError, RuntimeError) as e:  # RuntimeError: no matplotlib
+            print(f"dcmppi timing: error: {e}", file=sys.stderr)
+            return 2
+        print("wrote " + " and ".join(paths), file=sys.stderr)
     return 0

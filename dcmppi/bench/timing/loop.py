@@ -14,8 +14,8 @@ from .worlds import (
     push,
     pushed,
     walking_crowd,
-    world,
 )
+from .worlds import world as family_world  # `world` is ClosedLoop's argument
 
 PROBLEMS = ("forest", "forest+push", "crowd", *PEDESTRIANS)
 SKIP = 3  # first steps left out of the figures: they build the cost map and load the kernels
@@ -34,11 +34,15 @@ class ClosedLoop:
       name: controller name; params: its parameters (seed = 0).
       problem: one of PROBLEMS.
       steps: the number of steps the loop will run (the length of forest+push's offsets).
+      world: a World of the problem's family drawn by its generator with other counts
+        (worlds.world, worlds.dense_forest), or None: the problem's own. Not for pedestrians.
     """
 
-    def __init__(self, name, problem, steps, **params):
+    def __init__(self, name, problem, steps, world=None, **params):
         if problem not in PROBLEMS:
             raise ValueError(f"unknown timing problem {problem!r}; valid: {', '.join(PROBLEMS)}")
+        if world is not None and problem in PEDESTRIANS:
+            raise ValueError(f"a pedestrian problem ({problem!r}) builds its own world")
         if problem == "forest+push":
             params = {"reset_threshold": 0.0, **params}
         walking = problem in PEDESTRIANS
@@ -47,7 +51,7 @@ class ClosedLoop:
             w = task.world
             params = {"robot_radius": task.robot_radius, **params}  # the task's robot
         else:
-            w = world(problem.split("+")[0])
+            w = family_world(problem.split("+")[0]) if world is None else world
         self.ctrl = make_controller(name, seed=0, **params)
         self.offsets = push(steps) if problem == "forest+push" else None
         self.state, self.goal = np.array(w.start), w.goal
@@ -106,8 +110,13 @@ def time_cases(cases, steps, block=BLOCK):
     for loop, case in zip(loops, cases, strict=True):
         families.setdefault(case.problem.split("+")[0], []).append(loop)
     for family in families.values():
-        for start in range(0, steps, block):
-            for loop in family:
-                for _ in range(min(block, steps - start)):
-                    loop.step()
+        interleave(family, steps, block)
     return [loop.summary() for loop in loops]
+
+
+def interleave(loops, steps, block=BLOCK):
+    """Run every loop `steps` steps, in blocks of `block` consecutive steps, each loop in turn."""
+    for start in range(0, steps, block):
+        for loop in loops:
+            for _ in range(min(block, steps - start)):
+                loop.step()

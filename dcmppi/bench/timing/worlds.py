@@ -20,9 +20,20 @@ SEED = 0
 GENERATORS = {"forest": task_worlds.generate_forest, "crowd": task_worlds.generate_crowd}
 
 
-def world(family, seed=SEED):
-    """The tasks' World (dcmppi.tasks.worlds.World) of a problem family ("forest", "crowd")."""
-    return GENERATORS[family](np.random.RandomState(seed))
+def world(family, seed=SEED, **counts):
+    """The tasks' World (dcmppi.tasks.worlds.World) of a problem family ("forest", "crowd");
+    `counts` go to its generator (forest: n_clusters, map_size; crowd: n_obstacles)."""
+    return GENERATORS[family](np.random.RandomState(seed), **counts)
+
+
+def dense_forest(clusters, seed=SEED):
+    """The forest task's world with `clusters` clusters of cylinders (generate_forest's
+    n_clusters), at the forest's density or below: above the task's FOREST_CLUSTERS both sides
+    of the map grow by sqrt(clusters / FOREST_CLUSTERS) (the task's map would leave no room for
+    a start and a goal), so the cost map grows with them."""
+    grow = max(1.0, (clusters / task_worlds.FOREST_CLUSTERS) ** 0.5)
+    size = tuple(grow * side for side in task_worlds.MAP_SIZE)
+    return world("forest", seed, n_clusters=clusters, map_size=size)
 
 
 # The pedestrian problems' tasks (default parameters): the corridor (12 social-force

@@ -220,8 +220,8 @@ def compare(ours, steps, block=1):
                     loop.step()
                     path.append(loop.state[:2])
                     if i == 0:
-                        first_plan = loop.ctrl.diagnostics.plan if loop is ours else loop.mppi.U
-                        plans.append(np.array(first_plan))
+                        plan = loop.ctrl.diagnostics.plan if loop is ours else loop.mppi.U.numpy()
+                        plans.append(np.array(plan))
     finally:
         torch.set_num_threads(threads)
     (mo, po), (mt, pt) = ours.summary(), theirs.summary()

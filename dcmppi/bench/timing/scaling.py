@@ -70,10 +70,10 @@ def problem(controller, axis):
     return {"static": "forest", "moving": "crowd"}.get(axis, HOME[controller])
 
 
-def point_loop(controller, axis, value, steps, base=None):
-    """The ClosedLoop of `controller` at BASE (updated by `base`) with `axis` (its name) set to
-    `value`; its world drawn by the task's generator with those counts."""
-    base = {**BASE, **(base or {}), axis: value}
+def point_loop(controller, axis, value, steps):
+    """The ClosedLoop of `controller` at BASE with `axis` (its name) set to `value`; its world
+    drawn by the task's generator with those counts."""
+    base = {**BASE, axis: value}
     family = problem(controller, axis)
     if family == "forest":
         w = dense_forest(base["static"])
@@ -90,15 +90,15 @@ def sizes(loop):
     return {"K": c.K, "N": c.N, "P": c.P, "cylinders": cylinders, "obstacles": len(loop.moving)}
 
 
-def scaling(steps=STEPS, block=BLOCK, axes=AXES, base=None):
+def scaling(steps=STEPS, block=BLOCK):
     """{axis name: {controller: {"problem", "points": [{"value", K, N, P, "cylinders",
-    "obstacles", "median_ms", "p95_ms"}]}}}: every point timed on one thread, the loops of an
-    axis interleaved."""
+    "obstacles", "median_ms", "p95_ms"}]}}} of AXES: every point timed on one thread, the loops
+    of an axis interleaved."""
     results = {}
     with threadpool_limits(1):
-        for axis in axes:
+        for axis in AXES:
             loops = {
-                c: [point_loop(c, axis.name, v, steps, base) for v in axis.values]
+                c: [point_loop(c, axis.name, v, steps) for v in axis.values]
                 for c in axis.controllers
             }
             interleave([loop for row in loops.values() for loop in row], steps, block)
@@ -128,7 +128,7 @@ def fit_line(work, ms):
 def fits(results):
     """{controller: {FITS key: {"ns", "intercept_ms"} or None}}: each fit over its axes' points
     (None where the controller has fewer than two distinct works there)."""
-    controllers = {c: None for curves in results.values() for c in curves}
+    controllers = dict.fromkeys(c for curves in results.values() for c in curves)
     out = {}
     for c in controllers:
         out[c] = {}
@@ -143,38 +143,37 @@ def fits(results):
     return out
 
 
-def figure_data(results, axes=AXES, base=None):
-    """The plot's panels (render.plots.scaling_figure): {axis label: {"base": x at BASE, "curves":
-    {controller: (x list, median ms list)}}}."""
-    base = {**BASE, **(base or {})}
+def figure_data(report):
+    """The plot's panels (render.plots.scaling_figure) of a report (`run`): {axis label:
+    {"base": x at the paper's point or None, "curves": {controller: (x list, median ms list)}}}."""
+    base = report["settings"]["base"]
     panels = {}
-    for axis in axes:
-        curves = results[axis.name]
+    for name, axis in report["axes"].items():
         panel = {"curves": {}, "base": None}
-        for c, curve in curves.items():
-            x = [p[axis.size] for p in curve["points"]]
-            panel["curves"][c] = (x, [p["median_ms"] for p in curve["points"]])
-            at_base = [p[axis.size] for p in curve["points"] if p["value"] == base[axis.name]]
+        for c, curve in report["results"][name].items():
+            points = curve["points"]
+            panel["curves"][c] = ([p[axis["x"]] for p in points], [p["median_ms"] for p in points])
+            at_base = [p[axis["x"]] for p in points if p["value"] == base[name]]
             panel["base"] = at_base[0] if at_base else panel["base"]
-        panels[axis.label] = panel
+        panels[axis["label"]] = panel
     return panels
 
 
-def run(steps, block, machine, axes=AXES, base=None):
+def run(steps, block, machine):
     """The command's JSON object: settings (the run's seconds among them), axes, results, fits."""
     t0 = time.perf_counter()
-    results = scaling(steps, block, axes, base)
+    results = scaling(steps, block)
     return {
-        "settings": {"base": {**BASE, **(base or {})}, "steps": steps, "block": block,
-                     "threads": 1, "machine": machine, "seconds": time.perf_counter() - t0},
+        "settings": {"base": dict(BASE), "steps": steps, "block": block, "threads": 1,
+                     "machine": machine, "seconds": time.perf_counter() - t0},
         "axes": {a.name: {"label": a.label, "values": list(a.values), "x": a.size,
-                          "controllers": list(a.controllers)} for a in axes},
+                          "controllers": list(a.controllers)} for a in AXES},
         "results": results,
         "fits": fits(results),
     }  # fmt: skip
 
 
-def write(report, out, axes=AXES):
+def write(report, out):
     """scaling.json (the report) and scaling.png (render.plots.scaling_figure) in the folder
     `out` (made if missing). Returns their paths."""
     import json
@@ -187,14 +186,14 @@ def write(report, out, axes=AXES):
     paths = os.path.join(out, "scaling.json"), os.path.join(out, "scaling.png")
     with open(paths[0], "w") as f:
         json.dump(report, f, indent=2)
-    panels = figure_data(report["results"], axes, report["settings"]["base"])
+    panels = figure_data(report)
     s = report["settings"]
     title = f"ms per control step, one thread ({s['steps']} steps per point; dotted: the paper's)"
     save_figure(scaling_figure(panels, title), paths[1])
     return paths
 
 
-def print_scaling(report, axes=AXES):
+def print_scaling(report):
     """The report as text: per axis a table of median ms (a row per size, a column per
     controller), then the fits."""
     s = report["settings"]
@@ -203,13 +202,13 @@ def print_scaling(report, axes=AXES):
         f"in blocks of {s['block']}, from K={s['base']['K']} N={s['base']['N']} "
         f"P={s['base']['P']}; {s['seconds']:.0f} s"
     )
-    for axis in axes:
-        curves = report["results"][axis.name]
-        print(f"\n{axis.label:<32}" + "".join(f"{c:>10}" for c in curves))
+    for name, axis in report["axes"].items():
+        curves = report["results"][name]
+        print(f"\n{axis['label']:<32}" + "".join(f"{c:>10}" for c in curves))
         first = next(iter(curves.values()))["points"]
         for i in range(len(first)):
             cells = "".join(f"{curve['points'][i]['median_ms']:10.3f}" for curve in curves.values())
-            print(f"{first[i][axis.size]:<32}{cells}")
+            print(f"{first[i][axis['x']]:<32}{cells}")
     print()
     for c, fitted in report["fits"].items():
         parts = [f"{key[7:].replace('_', '-')} {f['ns']:.2f}" for key, f in fitted.items() if f]

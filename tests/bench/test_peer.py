@@ -1,12 +1,14 @@
 """`dcmppi timing --against pytorch_mppi`: the peer's problem equals ours (dynamics, cost, plan
 from the same perturbations), and the flag without torch or pytorch-mppi says how to install."""
 
+import json
 import sys
 
 import numpy as np
 import pytest
 
 from dcmppi.bench import peer, timing
+from dcmppi.bench.timing.loop import ClosedLoop
 from dcmppi.bench.timing.worlds import world
 from dcmppi.control import make_controller
 from dcmppi.control.agents import make_agent
@@ -72,12 +74,13 @@ def test_cost_of_rollouts_equals_evaluate():
     np.testing.assert_allclose(theirs, J, rtol=1e-6)
 
 
-def test_pytorch_mppi_plans_as_ours_from_the_same_perturbations():
+@pytest.mark.parametrize("K, N", [(200, 30), (64, 20)])
+def test_pytorch_mppi_plans_as_ours_from_the_same_perturbations(K, N):
     """Same start, warm start and perturbations: the configured peer's plan is ours (the x_0
     cost it leaves out shifts every sample's S alike). The warm start turns, so the control
     cost lambda U^T Sigma^-1 eps matters, and its end is 0, pytorch_mppi's u_init."""
     torch = _peer()
-    ctrl, problem = _problem(K=200, N=30)
+    ctrl, problem = _problem(K=K, N=N)
     ctrl.reset(seed=0)
     U0 = np.linspace(0.9, 0.0, ctrl.N)[:, None]  # (N, nu)
     ctrl.U = U0.copy()
@@ -85,6 +88,7 @@ def test_pytorch_mppi_plans_as_ours_from_the_same_perturbations():
     ctrl.sample = lambda: eps
     ctrl.act(START, GOAL, STATIC)
     mppi = peer.make_peer(ctrl, problem)
+    assert (mppi.K, mppi.T) == (K, N)
     mppi.U = torch.roll(torch.from_numpy(U0), 1, 0)  # command() shifts it back to U0 first
     noise = torch.from_numpy(np.ascontiguousarray(eps.transpose(2, 0, 1)))  # (K, N, nu)
     mppi._sample_noise = lambda shape: noise
@@ -110,3 +114,34 @@ def test_the_peer_needs_a_fixed_temperature():
     ctrl = make_controller("mppi", seed=0, lambda_="auto")
     with pytest.raises(ValueError, match="pytorch_mppi has a fixed temperature"):
         peer.make_peer(ctrl, None)
+
+
+def test_against_takes_the_problem_size(capsys):
+    _peer()
+    argv = ["--against", "pytorch_mppi", "--K", "64", "--N", "20", "--steps", "5", "--json"]
+    assert timing.main(argv) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert (result["settings"]["K"], result["settings"]["N"]) == (64, 20)
+    ours = ClosedLoop("mppi", "forest", 5, perturbation="time_varying", K=64, N=20)
+    theirs = peer.PeerLoop(ours).mppi
+    assert (theirs.K, theirs.T) == (64, 20)
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (
+            ["--against", "pytorch_mppi", "--K", "0"],
+            "--K must be a whole number in 1 .. 100000; got 0",
+        ),
+        (["--against", "pytorch_mppi", "--N", "2.5"], "argument --N: invalid int value: '2.5'"),
+        (["--N", "100"], "--N sets the size of --against's problem: add --against pytorch_mppi"),
+        (["--out", "x"], "--out is where --scaling writes its JSON and plot; add --scaling"),
+    ],
+)
+def test_a_bad_size_is_one_line_naming_it(argv, message, capsys):
+    with pytest.raises(SystemExit) as exit:
+        timing.main(argv)
+    assert exit.value.code == 2
+    out = capsys.readouterr()
+    assert out.out == "" and out.err == f"dcmppi timing: error: {message} (see --help)\n"

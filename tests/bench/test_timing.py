@@ -1,5 +1,5 @@
-"""`dcmppi timing`: the command's tables, profile and fingerprint (structure, not speed: timing
-is never an assertion here)."""
+"""`dcmppi timing`: the command's tables, profile, fingerprint and scaling curves (structure and
+fits, not speed: timing is never an assertion here)."""
 
 import json
 import subprocess
@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from dcmppi.bench import timing
-from dcmppi.bench.timing import cases, loop, profile
+from dcmppi.bench.timing import cases, loop, profile, scaling
+from dcmppi.bench.timing.worlds import dense_forest, world
 from dcmppi.control import make_controller
 from dcmppi.control.timer import NO_TIMER
 
@@ -176,3 +177,102 @@ def test_python_m_runs_the_profile():
         text=True,
     )
     assert list(json.loads(out.stdout)) == [c.label for c in cases.PROFILE_CASES]
+
+
+def _synthetic(ns, intercept_ms, noise, seed=0):
+    """Scaling results of one controller on the K and N axes (BASE's K = 500, N = 50) whose
+    medians grow by `ns` per state-step over `intercept_ms`, with relative noise."""
+    rng = np.random.default_rng(seed)
+    sizes = [(k, 50) for k in (250, 500, 1000, 2000, 4000, 8000)] + [
+        (500, n) for n in (25, 50, 100, 200)
+    ]
+    points = [
+        {"K": k, "N": n, "median_ms": (intercept_ms + ns * 1e-6 * k * n) * rng.normal(1, noise)}
+        for k, n in sizes
+    ]
+    return {"K": {"mppi": {"points": points[:6]}}, "N": {"mppi": {"points": points[6:]}}}
+
+
+def test_the_fit_recovers_a_known_ns_per_state_step_from_synthetic_timings():
+    assert scaling.fit_line([1e4, 2e4, 4e4], [0.07, 0.12, 0.22]) == pytest.approx((0.02, 5.0))
+    fitted = scaling.fits(_synthetic(ns=12.0, intercept_ms=0.05, noise=0.03))["mppi"]
+    assert fitted["ns_per_state_step"]["ns"] == pytest.approx(12.0, rel=0.05)
+    assert fitted["ns_per_state_step"]["intercept_ms"] == pytest.approx(0.05, abs=0.03)
+    fitted = scaling.fits(_synthetic(ns=12.0, intercept_ms=0.2, noise=0.0))["mppi"]  # exact
+    assert fitted["ns_per_state_step"]["intercept_ms"] == pytest.approx(0.2)
+    assert fitted["ns_per_obstacle_state_step"] is None  # no moving axis: no fit
+    with pytest.raises(ValueError, match="two different sizes"):
+        scaling.fit_line([1e4, 1e4], [0.1, 0.2])
+
+
+TINY_AXES = (
+    scaling.Axis("K", "samples K", (16, 32), "K"),
+    scaling.Axis("N", "horizon N (steps)", (5, 10), "N"),
+    scaling.Axis("static", "static cylinders (forest)", (0, 4), "cylinders"),
+    scaling.Axis("moving", "moving obstacles (crowd)", (0, 6), "obstacles"),
+    scaling.Axis("P", "futures per obstacle P (crowd)", (2, 4), "P", ("dc",)),
+)
+TINY_BASE = {"K": 32, "N": 10, "static": 4, "moving": 6, "P": 4}
+
+
+def test_scaling_times_a_tiny_grid_and_writes_its_json_and_plot(capsys, monkeypatch, tmp_path):
+    pytest.importorskip("matplotlib")
+    monkeypatch.setattr(scaling, "AXES", TINY_AXES)
+    monkeypatch.setattr(scaling, "BASE", TINY_BASE)
+    assert timing.main(["--scaling", "--steps", "5", "--json", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr()
+    report = json.loads(out.out)
+    assert report == json.loads((tmp_path / "scaling.json").read_text())
+    assert (tmp_path / "scaling.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert out.err.startswith("wrote ") and "scaling.png" in out.err
+    assert set(report) == {"settings", "axes", "results", "fits"}
+    assert report["settings"]["base"] == TINY_BASE and report["settings"]["seconds"] > 0
+    results = report["results"]
+    assert list(results) == ["K", "N", "static", "moving", "P"]
+    assert list(results["K"]) == ["mppi", "clustered", "dc", "tube"] and list(results["P"]) == [
+        "dc"
+    ]
+    assert {c: r["problem"] for c, r in results["K"].items()} == scaling.HOME
+    assert all(r["problem"] == "crowd" for r in results["moving"].values())
+    k = results["K"]["mppi"]["points"]
+    assert [(p["K"], p["N"], p["P"]) for p in k] == [(16, 10, 4), (32, 10, 4)]
+    static = results["static"]["tube"]["points"]
+    assert static[0]["cylinders"] == 0 < static[1]["cylinders"] and static[1]["obstacles"] == 0
+    moving = results["moving"]["clustered"]["points"]
+    assert [p["obstacles"] for p in moving] == [0, 6] and moving[0]["cylinders"] == 0
+    assert [p["P"] for p in results["P"]["dc"]["points"]] == [2, 4]
+    assert results["K"]["dc"]["points"][0]["obstacles"] == 6  # dc's home: the crowd at BASE
+    for curve in (c for axis in results.values() for c in axis.values()):
+        assert all(0 < p["median_ms"] <= p["p95_ms"] for p in curve["points"])
+    fitted = report["fits"]
+    assert set(fitted) == {"mppi", "clustered", "dc", "tube"}
+    assert all(f["ns_per_state_step"] and f["ns_per_obstacle_state_step"] for f in fitted.values())
+    assert (
+        fitted["dc"]["ns_per_future_state_step"]
+        and fitted["mppi"]["ns_per_future_state_step"] is None
+    )
+    panels = scaling.figure_data(report)
+    assert panels["static cylinders (forest)"]["base"] == static[1]["cylinders"]
+    assert panels["samples K"]["curves"]["dc"][0] == [16, 32]
+
+
+def test_scaling_prints_a_table_per_axis_and_the_fits(capsys, monkeypatch):
+    monkeypatch.setattr(scaling, "AXES", TINY_AXES[-1:])
+    monkeypatch.setattr(scaling, "BASE", TINY_BASE)
+    assert timing.main(["--scaling", "--steps", "5"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("dcmppi timing --scaling: median ms per step, one thread, 5 steps")
+    assert lines[2].split() == ["futures", "per", "obstacle", "P", "(crowd)", "dc"]
+    assert [line.split()[0] for line in lines[3:5]] == ["2", "4"]
+    assert lines[-1].startswith("dc: ns per future-state-step ")
+
+
+def test_dense_forest_is_the_forest_task_up_to_its_clusters_then_grows_the_map():
+    task = world("forest")
+    same = dense_forest(65)
+    np.testing.assert_array_equal(same.static, task.static)
+    np.testing.assert_array_equal(same.start, task.start)
+    np.testing.assert_array_equal(dense_forest(16).map_bounds, task.map_bounds)
+    assert dense_forest(260).map_bounds.tolist() == [0.0, 0.0, 150.0, 100.0]  # 4 x the clusters
+    with pytest.raises(ValueError, match="builds its own world"):
+        loop.ClosedLoop("mppi", "corridor", 5, world=task)

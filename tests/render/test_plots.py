@@ -1,5 +1,6 @@
 """The report's plots (dcmppi.render.plots) from the numbers dcmppi.bench computes: episode
-counts and the paper's values on the failure bars, one box per row, one path per row."""
+counts and the paper's values on the failure bars, one box per row, one path per row, timing's
+cost curves."""
 
 import numpy as np
 import pytest
@@ -11,6 +12,7 @@ from dcmppi.render.plots import (  # noqa: E402
     controller_time_figure,
     failure_figure,
     paths_figure,
+    scaling_figure,
 )
 
 
@@ -93,3 +95,26 @@ def test_paths_are_drawn_per_row_with_their_outcome_dashed_for_variants():
     assert drawn["mppi+margin: collision"].get_linestyle() == "--"
     np.testing.assert_array_equal(drawn["mppi+margin: collision"].get_ydata(), np.ones(5))
     assert len(ax.patches) == 2  # one static cylinder (the padding is skipped), one moving
+
+
+def test_scaling_curves_are_log_log_per_size_with_the_papers_point_dotted():
+    panels = {
+        "samples K": {"curves": {"mppi": ([250, 500, 1000], [0.1, 0.2, 0.4]),
+                                 "dc": ([250, 500, 1000], [1.0, 2.0, 4.0])}, "base": 500},
+        "moving obstacles": {"curves": {"dc": ([0, 50, 100], [0.3, 1.0, 2.0])}, "base": 100},
+        "futures P": {"curves": {"dc": ([5, 25], [1.5, 2.0])}, "base": None},
+        "horizon N": {"curves": {"tube": ([25, 50], [0.3, 0.6])}, "base": 50},
+    }  # fmt: skip
+    fig = scaling_figure(panels, "ms per step")
+    k, moving, futures, n, *unused = fig.axes
+    assert [ax.get_visible() for ax in unused] == [False, False]  # 4 panels on a 2 x 3 grid
+    assert (k.get_xscale(), k.get_yscale()) == ("log", "log")
+    assert moving.get_xscale() == "symlog"  # x = 0 drawn
+    assert k.get_xlabel() == "samples K" and n.get_xlabel() == "horizon N"
+    lines = {line.get_label(): line for line in k.get_lines() if line.get_linestyle() == "-"}
+    assert list(lines) == ["mppi", "dc"]
+    np.testing.assert_array_equal(lines["dc"].get_ydata(), [1.0, 2.0, 4.0])
+    dotted = [line.get_xdata()[0] for ax in fig.axes for line in ax.get_lines()
+              if line.get_linestyle() == ":"]  # fmt: skip
+    assert dotted == [500, 100, 50]  # none where the base is not given
+    assert [t.get_text() for t in k.get_xticklabels()] == ["250", "500", "1000"]

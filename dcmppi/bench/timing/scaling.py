@@ -27,7 +27,7 @@ from .worlds import dense_forest, world
 
 CONTROLLERS = ("mppi", "clustered", "dc", "tube")
 HOME = {"mppi": "forest", "clustered": "forest", "tube": "forest", "dc": "crowd"}
-STEPS = 40  # control steps per point by default (the first loop.SKIP not timed)
+STEPS = 200  # control steps per point by default (the first loop.SKIP not timed)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -578,7 +578,8 @@ def build_parser() -> argparse.ArgumentParser:
     # `timing` parses its own options (dcmppi.bench.timing.main); listed here for --help.
     sub.add_parser(
         "timing",
-        help="controller ms per step on fixed problems (--json, --steps, --against pytorch_mppi)",
+        help="controller ms per step on fixed problems (--json, --steps, --against pytorch_mppi, "
+        "--scaling, --profile, --fingerprint)",
     )
     return parser
 

@@ -7,8 +7,8 @@
 Every controller accepts the shared parameters (defaults from dcmppi.control.defaults,
 explained in docs/design.md): agent and its parameters (dubins: v, r_min; unicycle and holonomic:
 v_max, omega_max), robot_radius, dt, K, N, lambda_, ess_target, Sigma, gamma, alpha, beta, P, seed,
-perturbation, resolution, obstacle_margin, prediction and its predictor's parameters, plus its
-own. Each step, the predictor turns the moving obstacles into tracks, the step's Objective
+perturbation, resolution, obstacle_margin, threads, prediction and its predictor's parameters,
+plus its own. Each step, the predictor turns the moving obstacles into tracks, the step's Objective
 scores rollouts, and the subclass's `_solve` plans with them.
 """
 
@@ -18,7 +18,7 @@ import numpy as np
 
 from . import defaults
 from .agents import make_agent
-from .agents.projection import project_perturbed
+from .agents.projection import NO_SUMS, project_columns, project_perturbed
 from .costs import RESOLUTION, OccupancyGrid, valid_cylinders
 from .diagnostics import Diagnostics
 from .normal import scaled_normal, standard_normal
@@ -26,6 +26,7 @@ from .objective import Objective
 from .predictors import predictor_class
 from .predictors.base import INPUTS
 from .temperature import COLLISION_NATS, ESS_TARGET, choose_lambda
+from .threads import parts, run
 from .timer import NO_TIMER
 from .validation import positive
 
@@ -56,6 +57,9 @@ class Controller:
         time-varying draw, each N(0, Sigma / 2)); default: the agent's.
       resolution: cost-map cell size [m].
       obstacle_margin: added to every moving obstacle's radius in the cost [m].
+      threads: threads that share the samples' controls, rollouts, costs and importance terms
+        (dcmppi.control.threads); the plans are the same for every number (with BLAS on one
+        thread). Default 1: a benchmark's workers use the cores.
       prediction: the obstacle predictor: a registered name (dcmppi.control.predictors) or
         package.module:ClassName; default `default_prediction` ("frozen"; dc: "prior"). Its
         own parameters go alongside.
@@ -86,6 +90,7 @@ class Controller:
         perturbation=None,
         resolution=RESOLUTION,
         obstacle_margin=0.0,
+        threads=1,
         prediction=None,
         **other,
     ):
@@ -118,6 +123,7 @@ class Controller:
         self.perturbation = perturbation
         self.resolution = positive("resolution", resolution)
         self.obstacle_margin = positive("obstacle_margin", obstacle_margin, allow_zero=True)
+        self.threads = positive("threads", threads, integer=True)
         if seed is not None and not isinstance(seed, (numbers.Integral, np.random.Generator)):
             raise ValueError(f"seed must be None, an int or a np.random.Generator; got {seed!r}")
         self.seed = seed
@@ -141,7 +147,7 @@ class Controller:
     own_params = (
         "agent", "robot_radius", "dt", "K", "N", "lambda_", "ess_target", "Sigma", "gamma",
         "alpha", "beta", "P", "seed", "perturbation", "resolution", "obstacle_margin",
-        "prediction",
+        "threads", "prediction",
     )  # fmt: skip
 
     @classmethod
@@ -276,6 +282,58 @@ class Controller:
         (dcmppi.control.agents.projection); with sums=True also their horizon sums (nu, K), the
         clustering features."""
         return project_perturbed(self.agent, U0, eps, sums)
+
+    def perturbed_rollouts(self, x0, eps, starts=1, sums=False, moving=False):
+        """A step's per-sample work, its samples split over `threads` threads: the controls
+        project(U + eps) (Controller.controls), their rollouts from x0 and costs under this
+        step's objective (Controller.evaluate), and the importance term (Controller.importance).
+
+        x0: (3,), or (3, S) with starts = S > 1: every sample rolls out from each start.
+        eps: (N, nu, K) perturbations (Controller.sample).
+        Returns e (N, nu, K) the perturbations that remain, states (3, N + 1, S K), J (S K,),
+        the importance term (K,); with sums=True also the horizon sums of e (nu, K), with
+        moving=True J's moving-obstacle term (S K,) (None: 0).
+        """
+        U0, k = self.U, eps.shape[2]
+        ranges = parts(k, self.threads)
+        if len(ranges) == 1:  # the whole batch on this thread
+            with self.timer("controls"):
+                u, e, *total = self.controls(U0, eps, sums)
+            states, J, term = self.evaluate(x0, u, starts, moving=True)
+            with self.timer("importance"):
+                importance = self.importance(U0, e)
+            return e, states, J, importance, *total, *([term] if moving else [])
+        agent, objective = self.agent, self.objective
+        u, e = np.empty(eps.shape), np.empty(eps.shape)
+        total = np.zeros((self.nu, k)) if sums else NO_SUMS
+        out = np.empty((3, self.N + 1, starts, k))
+        out[:, 0] = np.reshape(x0, (3, starts, -1))
+        states = out.reshape(3, self.N + 1, starts * k)
+        J, importance = np.empty(starts * k), np.empty(k)
+        term = None if objective.tracks.empty else np.empty(starts * k)
+
+        def costs(j0, j1, sharp=False):
+            flag = agent.rollout_columns(out, u, self.dt, (j0, j1), sharp)
+            for s in range(starts):
+                c0, c1 = s * k + j0, s * k + j1
+                J[c0:c1], t = objective(states, True, (c0, c1))
+                if term is not None:
+                    term[c0:c1] = t
+            return flag
+
+        def part(j0, j1):
+            project_columns(agent, U0, eps, u, e, total, (j0, j1))
+            flag = costs(j0, j1)
+            importance[j0:j1] = self.importance(U0, e[:, :, j0:j1])
+            return flag
+
+        with self.timer("threads"):
+            flags = run(part, ranges)
+            if any(flags):  # parts that must agree (Agent.rollout_columns) roll out again
+                for (j0, j1), flag in zip(ranges, flags, strict=True):
+                    if not flag:
+                        costs(j0, j1, sharp=True)
+        return e, states, J, importance, *([total] if sums else []), *([term] if moving else [])
 
     def evaluate(self, x0, u, starts=1, moving=False):
         """Rollouts and their costs under this step's objective. x0: (3,) or (3, R);

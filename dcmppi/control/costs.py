@@ -16,6 +16,8 @@ Alg. 2's cluster controls), adding in step order.
 import numba
 import numpy as np
 
+from .threads import in_cols, n_cols
+
 RESOLUTION = 0.1  # occupancy-grid cell size [m]
 MAX_CELLS = 1e8  # occupancy-grid cells (100 MB)
 
@@ -191,34 +193,36 @@ def _add_hits(counts, cells, x, y, flat, columns, origin, limit, inv):
         counts[k] += flat[cells[k]]
 
 
-def goal_distance(x, y, goal):
-    """Sum over steps of the distance to the goal. x, y: (N + 1, K). Returns (K,)."""
-    _check_steps(x, y)
-    return _goal_distance(x, y, float(goal[0]), float(goal[1]))
+def goal_distance(x, y, goal, cols=None):
+    """Sum over steps of the distance to the goal. x, y: (N + 1, K); cols: (j0, j1), the
+    columns to sum (None: all). Returns (j1 - j0,)."""
+    return _goal_distance(x, y, float(goal[0]), float(goal[1]), _columns(x, y, cols))
 
 
-def static_costs(x, y, goal, grid, alpha):
+def static_costs(x, y, goal, grid, alpha, cols=None):
     """goal_distance plus alpha per occupied state of `grid` (OccupancyGrid), in one pass: the
-    same values as goal_distance(x, y, goal) + alpha * grid.count(x, y). x, y: (N + 1, R).
-    Returns (R,)."""
-    _check_steps(x, y)
-    return _static_costs(x, y, float(goal[0]), float(goal[1]), float(alpha), *grid._cells)
+    same values as goal_distance(x, y, goal) + alpha * grid.count(x, y). x, y: (N + 1, R);
+    cols: (j0, j1) as in goal_distance. Returns (j1 - j0,)."""
+    cols = _columns(x, y, cols)
+    return _static_costs(x, y, float(goal[0]), float(goal[1]), float(alpha), *grid._cells, cols)
 
 
-@numba.njit(cache=True)
-def _static_costs(x, y, gx, gy, alpha, flat, columns, origin, limit, inv):
-    """Per step, the goal distances then the cell lookups (loops that vectorise apart)."""
-    J = np.zeros(x.shape[1])
-    hits = np.zeros(x.shape[1], dtype=np.intp)
-    cells = np.empty(x.shape[1], dtype=np.intp)
+@numba.njit(cache=True, nogil=True)
+def _static_costs(x, y, gx, gy, alpha, flat, columns, origin, limit, inv, cols):
+    """Per step, the goal distances then the cell lookups (loops that vectorise apart), over
+    the columns cols (threads.in_cols)."""
+    r = n_cols(x.shape[1], cols)
+    J = np.zeros(r)
+    hits = np.zeros(r, dtype=np.intp)
+    cells = np.empty(r, dtype=np.intp)
     for i in range(x.shape[0]):
-        xi, yi = x[i], y[i]
-        for k in range(x.shape[1]):
+        xi, yi = in_cols(x[i], cols), in_cols(y[i], cols)
+        for k in range(r):
             dx = xi[k] - gx
             dy = yi[k] - gy
             J[k] += np.sqrt(dx * dx + dy * dy)
         _add_hits(hits, cells, xi, yi, flat, columns, origin, limit, inv)
-    for k in range(x.shape[1]):
+    for k in range(r):
         J[k] += alpha * hits[k]
     return J
 
@@ -229,13 +233,25 @@ def _check_steps(x, y):
         raise ValueError(f"x and y must be (N + 1, R) alike; got {x.shape} and {y.shape}")
 
 
-@numba.njit(cache=True)
-def _goal_distance(x, y, gx, gy):
-    J = np.zeros(x.shape[1])
+def _columns(x, y, cols):
+    """The checked column range (j0, j1) of x, y (N + 1, R), or None (all)."""
+    _check_steps(x, y)
+    if cols is None:
+        return None
+    j0, j1 = cols = int(cols[0]), int(cols[1])
+    if not 0 <= j0 <= j1 <= x.shape[1]:
+        raise ValueError(f"cols must be (j0, j1) with 0 <= j0 <= j1 <= {x.shape[1]}; got {cols}")
+    return j0, j1
+
+
+@numba.njit(cache=True, nogil=True)
+def _goal_distance(x, y, gx, gy, cols):
+    J = np.zeros(n_cols(x.shape[1], cols))
     for i in range(x.shape[0]):
-        for k in range(x.shape[1]):
-            dx = x[i, k] - gx
-            dy = y[i, k] - gy
+        xi, yi = in_cols(x[i], cols), in_cols(y[i], cols)
+        for k in range(len(J)):
+            dx = xi[k] - gx
+            dy = yi[k] - gy
             J[k] += np.sqrt(dx * dx + dy * dy)
     return J
 
@@ -286,14 +302,15 @@ class TrackIndex:
         tracks = np.ascontiguousarray(tracks)
         self._index = (1.0 / width, *_sort_tracks(tracks, distance * distance, 1.0 / width))
 
-    def count(self, x, y):
-        """Collisions (R,) int of rollouts x, y (N + 1, R) with the tracks, summed over steps."""
-        _check_steps(x, y)
+    def count(self, x, y, cols=None):
+        """Collisions (j1 - j0,) int of the rollouts x, y (N + 1, R) in columns cols = (j0, j1)
+        (None: all) with the tracks, summed over steps."""
+        cols = _columns(x, y, cols)
         if x.shape[0] != self.steps:
             raise ValueError(f"rollouts have {x.shape[0]} steps, the tracks {self.steps}")
         if self.empty:
-            return np.zeros(x.shape[1], dtype=np.intp)
-        return _count_hits(x, y, *self._index)
+            return np.zeros(n_cols(x.shape[1], cols), dtype=np.intp)
+        return _count_hits(x, y, cols, *self._index)
 
 
 @numba.njit(cache=True)
@@ -344,16 +361,17 @@ def _sort_tracks(tracks, d2, inv):
     return corner, shape, offset, start, out
 
 
-@numba.njit(cache=True)
-def _count_hits(x, y, inv, corner, shape, offset, start, sorted_tracks):
-    """(R,) hits of the states x, y (N + 1, R) with the sorted tracks (see _sort_tracks).
+@numba.njit(cache=True, nogil=True)
+def _count_hits(x, y, cols, inv, corner, shape, offset, start, sorted_tracks):
+    """(R,) hits of the states x, y (N + 1, :) in columns cols (R of them, threads.in_cols)
+    with the sorted tracks (see _sort_tracks).
 
     A state meets the tracks of the three columns of cells around its own. The states of one
     step crowd into a few cells (about 6 for K = 500), so they are sorted by cell first and each
     cell's candidate tracks are gathered once into one contiguous run that all its states then
     scan: per state one loop instead of three short ones, and a loop of the same length as the
     previous state's, whose end the branch predictor foresees."""
-    steps, R = x.shape
+    steps, R = x.shape[0], n_cols(x.shape[1], cols)
     T = sorted_tracks.shape[1]
     counts = np.zeros(R, dtype=np.intp)
     cx, cy = np.empty(R, dtype=np.intp), np.empty(R, dtype=np.intp)
@@ -367,7 +385,7 @@ def _count_hits(x, y, inv, corner, shape, offset, start, sorted_tracks):
         nx, ny = shape[i, 0], shape[i, 1]
         s = start[offset[i] : offset[i + 1]]
         o = sorted_tracks[i]
-        xi, yi = x[i], y[i]
+        xi, yi = in_cols(x[i], cols), in_cols(y[i], cols)
         x0, y0, x1, y1 = nx, ny, -1, -1  # bounding box of the states' cells
         for k in range(R):
             fx, fy = (xi[k] - corner[i, 0]) * inv, (yi[k] - corner[i, 1]) * inv

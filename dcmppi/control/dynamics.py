@@ -16,6 +16,8 @@ accurate to about 1e-6 m over a 5 s horizon, far below the 0.1 m cost-map resolu
 import numba
 import numpy as np
 
+from .threads import in_cols, n_cols
+
 _SINC_SERIES_MAX = 0.1  # |a| below which sinc(a) uses its series (error < 1e-13)
 
 
@@ -98,36 +100,51 @@ def arc_rollout(x0, u, dt, v=None, starts=1):
     n, _, k = u.shape
     out = np.empty((3, n + 1, starts, k))
     out[:, 0] = np.reshape(x0, (3, starts, -1))
-    a, mid, step = _arcs(out, u, 0.5 * dt, dt if v is None else v * dt)
-    if step is None:  # a sharp turn: sinc beyond its series
-        step = (dt if v is None else v * dt) * sinc(a)
-        if v is None:
-            step *= u[:, 0]
-    _positions(out, step, np.cos(mid), np.sin(mid))
+    arc_columns(out, u, dt, v)
     return out.reshape(3, n + 1, starts * k)
 
 
-@numba.njit(cache=True)
-def _arcs(out, u, half_dt, vdt):
-    """The arcs of every period: wraps the start headings out[2, 0] to [-pi, pi) and writes
-    theta_{i+1} = theta_i + 2 a_i into out[2].
+def arc_columns(out, u, dt, v, cols=None, sharp=False):
+    """arc_rollout of the samples cols = (j0, j1) (None: all) into their columns of out
+    (3, N + 1, S, K), whose start states out[:, 0] are set.
+
+    The chords come from sinc's series unless some arc of these columns is beyond it, or
+    sharp=True (another part's arc is: a batch split over threads keeps the whole batch's
+    choice). Returns whether some arc of these columns is beyond the series.
+    """
+    vdt = dt if v is None else v * dt
+    a, mid, step = _arcs(out, u, 0.5 * dt, vdt, cols)
+    beyond = step is None
+    if beyond or sharp:  # a sharp turn: sinc beyond its series
+        step = vdt * np.sinc(a / np.pi)
+        if v is None:
+            step *= u[:, 0] if cols is None else u[:, 0, cols[0] : cols[1]]
+    _positions(out, step, np.cos(mid), np.sin(mid), cols)
+    return beyond
+
+
+@numba.njit(cache=True, nogil=True)
+def _arcs(out, u, half_dt, vdt, cols):
+    """The arcs of every period of the samples cols (threads.in_cols): wraps their start
+    headings out[2, 0] to [-pi, pi) and writes theta_{i+1} = theta_i + 2 a_i into out[2].
     out: (3, n + 1, S, K); u: (n, 1, K) turn rates (one speed: vdt = v dt) or (n, 2, K)
     speeds and turn rates (vdt = dt).
-    Returns a = omega dt / 2 (n, K), the mid-period headings float32(theta_i + a_i) (n, S, K),
-    and the chords v dt sinc(a) (n, K) (per-period speeds: (dt sinc(a)) v), or None when some
-    |a| is beyond sinc's series. One pass per step over the K samples (no temporaries)."""
-    n, starts, k = u.shape[0], out.shape[2], out.shape[3]
+    Returns a = omega dt / 2 (n, k), the mid-period headings float32(theta_i + a_i) (n, S, k),
+    and the chords v dt sinc(a) (n, k) (per-period speeds: (dt sinc(a)) v), or None when some
+    |a| is beyond sinc's series; k samples. One pass per step over the samples (no
+    temporaries)."""
+    n, starts, k = u.shape[0], out.shape[2], n_cols(u.shape[2], cols)
     turn = u.shape[1] - 1  # the turn rate's column; a speed's is 0 when there are two
-    theta = out[2].reshape(n + 1, starts * k)  # contiguous views: the inner loops vectorise
-    for j in range(starts * k):
-        theta[0, j] = _wrap(theta[0, j])
+    for s in range(starts):
+        first = in_cols(out[2, 0, s], cols)
+        for j in range(k):
+            first[j] = _wrap(first[j])
     a = np.empty((n, k))
     chord = np.empty((n, k))
     mid = np.empty((n, starts, k), dtype=np.float32)
-    mid2 = mid.reshape(n, starts * k)
     beyond = 0  # arcs too sharp for the series (a count, not a max: the loop vectorises)
     for i in range(n):
-        ai_row, c_row, omega = a[i], chord[i], u[i, turn]
+        ai_row, c_row, omega = a[i], chord[i], in_cols(u[i, turn], cols)
         for j in range(k):
             ai = omega[j] * half_dt
             ai_row[j] = ai
@@ -135,15 +152,12 @@ def _arcs(out, u, half_dt, vdt):
             c_row[j] = vdt * (1.0 + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 - a2 / 5040.0)))
             beyond += abs(ai) >= _SINC_SERIES_MAX
         if turn:
-            speed = u[i, 0]
+            speed = in_cols(u[i, 0], cols)
             for j in range(k):
                 c_row[j] *= speed[j]
         for s in range(starts):
-            now, nxt, m = (
-                theta[i, s * k : (s + 1) * k],
-                theta[i + 1, s * k : (s + 1) * k],
-                mid2[i, s * k : (s + 1) * k],
-            )
+            now, nxt = in_cols(out[2, i, s], cols), in_cols(out[2, i + 1, s], cols)
+            m = mid[i, s]
             for j in range(k):
                 m[j] = np.float32(now[j] + ai_row[j])
                 nxt[j] = now[j] + (ai_row[j] + ai_row[j])
@@ -152,16 +166,20 @@ def _arcs(out, u, half_dt, vdt):
     return a, mid, chord
 
 
-@numba.njit(cache=True)
-def _positions(out, step, cos, sin):
-    """x_{i+1} = x_i + step_i cos_i and y likewise into out[:2] (from out[:2, 0]).
-    out: (3, n + 1, S, K); step: (n, K) arc lengths' chords; cos, sin: (n, S, K) float32."""
-    n, starts, k = step.shape[0], out.shape[2], out.shape[3]
+@numba.njit(cache=True, nogil=True)
+def _positions(out, step, cos, sin, cols):
+    """x_{i+1} = x_i + step_i cos_i and y likewise into out[:2] (from out[:2, 0]), columns
+    cols (threads.in_cols).
+    out: (3, n + 1, S, K); step: (n, k) arc lengths' chords; cos, sin: (n, S, k) float32."""
+    n, starts, k = step.shape[0], out.shape[2], step.shape[1]
     for i in range(n):
         for s in range(starts):
+            x0, x1 = in_cols(out[0, i, s], cols), in_cols(out[0, i + 1, s], cols)
+            y0, y1 = in_cols(out[1, i, s], cols), in_cols(out[1, i + 1, s], cols)
+            c, sn, d = cos[i, s], sin[i, s], step[i]
             for j in range(k):
-                out[0, i + 1, s, j] = out[0, i, s, j] + step[i, j] * np.float64(cos[i, s, j])
-                out[1, i + 1, s, j] = out[1, i, s, j] + step[i, j] * np.float64(sin[i, s, j])
+                x1[j] = x0[j] + d[j] * np.float64(c[j])
+                y1[j] = y0[j] + d[j] * np.float64(sn[j])
 
 
 def rollout(state, U, v, dt):

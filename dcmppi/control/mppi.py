@@ -44,15 +44,10 @@ class MPPI(Controller):
         """Sample, roll out and score: eps (N, nu, K), states (3, N + 1, K), J (K,), S (K,);
         with sums=True also the horizon sums of eps (nu, K) (see Controller.controls), with
         moving=True also J's moving-obstacle term (K,) (None: 0)."""
-        timer = self.timer
-        with timer("sample"):
+        with self.timer("sample"):
             eps = self.sample()
-        with timer("controls"):
-            u, eps, *out = self.controls(self.U, eps, sums)
-        states, J, *term = self.evaluate(state, u, moving=moving)
-        with timer("importance"):
-            S = J + self.importance(self.U, eps)
-        return eps, states, J, S, *out, *term
+        eps, states, J, importance, *out = self.perturbed_rollouts(state, eps, 1, sums, moving)
+        return eps, states, J, J + importance, *out
 
     def record(self, eps, states, J, S):
         d = self.diagnostics

@@ -45,17 +45,18 @@ class Objective:
             else NO_TRACKS
         )
 
-    def __call__(self, states, moving=False):
+    def __call__(self, states, moving=False, cols=None):
         """J (R,) of the rollouts states (3, N + 1, R) (x, y, theta; only x, y are used); with
-        moving=True also the moving-obstacle term (R,) inside J, or None where it is 0."""
+        moving=True also the moving-obstacle term (R,) inside J, or None where it is 0.
+        cols = (j0, j1): only those rollouts' J (j1 - j0,) (and term)."""
         x, y = states[0], states[1]
         if self.grid.empty or not self.alpha:
-            J = goal_distance(x, y, self.goal)
+            J = goal_distance(x, y, self.goal, cols)
         else:
-            J = static_costs(x, y, self.goal, self.grid, self.alpha)
+            J = static_costs(x, y, self.goal, self.grid, self.alpha, cols)
         term = None
         if not self.tracks.empty:
-            term = self.weight * self.tracks.count(x, y)
+            term = self.weight * self.tracks.count(x, y, cols)
             J += term
         return (J, term) if moving else J
 

@@ -3,7 +3,8 @@
 `controller.timer(label)` returns a context manager around one part of a step. The default,
 NO_TIMER, does nothing; `dcmppi timing --profile` sets a StepTimer, which adds up the seconds
 and calls of each label. Labels: "sample", "controls", "evaluate", "rollout", "objective",
-"importance", "update", "features", "DBSCAN", "cluster updates", "prediction".
+"importance", "update", "features", "DBSCAN", "cluster updates", "prediction"; with threads > 1
+"threads" (controls, rollout, objective and importance together, over the threads).
 """
 
 import time

@@ -137,9 +137,7 @@ class TubeMPPI(MPPI):
         timer = self.timer
         with timer("sample"):
             eps = self.sample()
-        with timer("controls"):
-            u, eps = self.controls(self.U, eps)
-        states, J, S, reset = self._two_solves(z, state, u, eps)
+        eps, states, J, S, reset = self._two_solves(z, state, eps)
         if reset:
             z = state.copy()
         lam = self.temperature(S)  # the chosen solve's (S does not depend on it)
@@ -158,31 +156,31 @@ class TubeMPPI(MPPI):
         d.plan = plan
         return action
 
-    def _two_solves(self, z, state, u, eps):
-        """Rollouts from the nominal state z and the real state with the same controls u.
+    def _two_solves(self, z, state, eps):
+        """Rollouts from the nominal state z and the real state with the same perturbations eps
+        (N, nu, K).
 
-        Returns the chosen solve's states (3, N + 1, K), J (K,), S (K,) and the reset flag. When
-        z equals the real state (after every reset on a noise-free model) both solves are the
-        same computation, so one batch of K rollouts stands for both. Otherwise one batch of 2K
-        rollouts from the two start states (heading increments and sinc terms shared).
+        Returns the perturbations that remain after projection (N, nu, K), the chosen solve's
+        states (3, N + 1, K), J (K,), S (K,) and the reset flag. When z equals the real state
+        (after every reset on a noise-free model) both solves are the same computation, so one
+        batch of K rollouts stands for both. Otherwise one batch of 2K rollouts from the two
+        start states (heading increments and sinc terms shared).
         """
-        with self.timer("importance"):
-            importance = self.importance(self.U, eps)
         if np.array_equal(z, state):
-            states, J = self.evaluate(state, u)
+            eps, states, J, importance = self.perturbed_rollouts(state, eps)
             S = J + importance
             m = S.min()
-            return states, J, S, bool(m < m + self.reset_threshold)
+            return eps, states, J, S, bool(m < m + self.reset_threshold)
         K = self.K
-        states, J = self.evaluate(np.column_stack([z, state]), u, starts=2)
+        eps, states, J, importance = self.perturbed_rollouts(np.column_stack([z, state]), eps, 2)
         J_nom, J_real = J[:K], J[K:]
         S_nom, S_real = J_nom + importance, J_real + importance
         reset = S_real.min() < S_nom.min() + self.reset_threshold or (
             np.hypot(*(state[:2] - z[:2])) > self.max_deviation
         )
         if reset:
-            return states[:, :, K:], J_real, S_real, reset
-        return states[:, :, :K], J_nom, S_nom, reset
+            return eps, states[:, :, K:], J_real, S_real, reset
+        return eps, states[:, :, :K], J_nom, S_nom, reset
 
     def _feedback(self, z, state, plan):
         """K_0 (x - z) (nu,) of the time-varying LQR along the nominal plan (0 when x is z)."""

@@ -4,8 +4,8 @@ Each is an `Agent` (dcmppi.control.agents.base) registered by name; `make_agent(
 **params)` builds one and every controller plans with one (`make_controller(..., agent=name)`).
 projection: the compiled kernels that move perturbed controls into an agent's bounds.
 
-May import numpy, numba and dcmppi.control's dynamics and validation; the tasks import these
-agents (their plants follow them), so they import nothing of the planners.
+May import numpy, numba and dcmppi.control's dynamics, threads and validation; the tasks import
+these agents (their plants follow them), so they import nothing of the planners.
 """
 
 from . import dubins, holonomic, unicycle  # noqa: F401  (registers the agents)

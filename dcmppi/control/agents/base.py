@@ -8,6 +8,7 @@ holonomic robot's planar speed). The planners see an agent through:
     agent.lower, agent.upper  (nu,) box bounds; agent.norm_axes, agent.norm_limit
     agent.project(u)          controls (N, nu, K) moved into the bounds (clip, then norm)
     agent.rollout(x0, u, dt)  states (3, N + 1, K) of K control sequences u (N, nu, K)
+    agent.rollout_columns(out, u, dt, cols)  the same for samples cols = (j0, j1), in place
     agent.step(x, u, dt)      one exact control period, any leading shape
     agent.jacobians(X, U, dt) A (N, 3, 3), B (N, 3, nu) of that step along a trajectory
     agent.first_guess(x, goal, N)   the warm start (N, nu) of an episode's first step
@@ -196,6 +197,22 @@ class Agent:
           contiguous for the cost kernels); columns s K .. (s + 1) K - 1 start from x0[:, s].
         """
         raise NotImplementedError
+
+    def rollout_columns(self, out, u, dt, cols=None, sharp=False):
+        """The rollouts of samples cols = (j0, j1) (a thread's share of a batch; None: all) into
+        their columns of out (3, N + 1, S, K), whose start states out[:, 0] are set; u: (N, nu,
+        K).
+
+        Returns a flag that the split batch must agree on (the arcs' sinc: whether some arc is
+        beyond its series); when the parts' flags differ, the parts without it are rolled out
+        again with sharp=True. Default: `rollout` on a copy of the columns (flag False).
+        """
+        starts = out.shape[2]
+        j0, j1 = cols or (0, u.shape[2])
+        x0 = out[:, 0, 0, j0:j1] if starts == 1 else out[:, 0, :, j0]
+        part = self.rollout(x0, np.ascontiguousarray(u[:, :, j0:j1]), dt, starts)
+        out[:, :, :, j0:j1] = part.reshape(3, -1, starts, j1 - j0)
+        return False
 
     def step(self, state, u, dt):
         """One exact control period: state (..., 3), u (..., nu) -> (..., 3), theta unwrapped."""

@@ -7,7 +7,7 @@ fixed. Each control period is an exact arc (dcmppi.control.dynamics).
 import numpy as np
 
 from .. import defaults
-from ..dynamics import arc_rollout, dubins_step, sinc
+from ..dynamics import arc_columns, arc_rollout, dubins_step, sinc
 from ..validation import positive
 from .base import Agent, register_agent
 
@@ -33,6 +33,9 @@ class Dubins(Agent):
 
     def rollout(self, x0, u, dt, starts=1):
         return arc_rollout(x0, u, dt, self.v, starts)
+
+    def rollout_columns(self, out, u, dt, cols=None, sharp=False):
+        return arc_columns(out, u, dt, self.v, cols, sharp)
 
     def step(self, state, u, dt):
         return dubins_step(state, np.asarray(u, dtype=float)[..., 0], self.v, dt)

@@ -11,6 +11,7 @@ import numpy as np
 
 from .. import defaults
 from ..dynamics import _wrap
+from ..threads import in_cols
 from ..validation import positive
 from .base import Agent, register_agent
 
@@ -46,8 +47,12 @@ class Holonomic(Agent):
         n, _, k = u.shape
         out = np.empty((3, n + 1, starts, k))
         out[:, 0] = np.reshape(x0, (3, starts, -1))
-        _integrate(out, u, dt)
+        _integrate(out, u, dt, None)
         return out.reshape(3, n + 1, starts * k)
+
+    def rollout_columns(self, out, u, dt, cols=None, sharp=False):
+        _integrate(out, u, dt, cols)
+        return False
 
     def step(self, state, u, dt):
         return np.asarray(state, dtype=float) + dt * np.asarray(u, dtype=float)
@@ -59,16 +64,20 @@ class Holonomic(Agent):
         ).copy()
 
 
-@numba.njit(cache=True)
-def _integrate(out, u, dt):
-    """out[i + 1] = out[i] + dt u_i, start headings wrapped.
+@numba.njit(cache=True, nogil=True)
+def _integrate(out, u, dt, cols):
+    """out[i + 1] = out[i] + dt u_i for the samples cols (threads.in_cols), their start
+    headings wrapped.
     out: (3, n + 1, S, K); u: (n, 3, K)."""
-    n, starts, k = u.shape[0], out.shape[2], out.shape[3]
+    n, starts = u.shape[0], out.shape[2]
     for s in range(starts):
-        for j in range(k):
-            out[2, 0, s, j] = _wrap(out[2, 0, s, j])
+        first = in_cols(out[2, 0, s], cols)
+        for j in range(len(first)):
+            first[j] = _wrap(first[j])
     for c in range(3):
         for i in range(n):
+            step = in_cols(u[i, c], cols)
             for s in range(starts):
-                for j in range(k):
-                    out[c, i + 1, s, j] = out[c, i, s, j] + dt * u[i, c, j]
+                now, nxt = in_cols(out[c, i, s], cols), in_cols(out[c, i + 1, s], cols)
+                for j in range(len(step)):
+                    nxt[j] = now[j] + dt * step[j]

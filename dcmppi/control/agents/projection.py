@@ -9,6 +9,8 @@ values as `Agent.project` for box bounds and for a box and a disc (holonomic).
 import numba
 import numpy as np
 
+from ..threads import in_cols, n_cols
+
 
 def project_perturbed(agent, U0, eps, sums=False):
     """Bounded controls u = project(U0 + eps) (N, nu, K) and the perturbations u - U0 that
@@ -17,83 +19,95 @@ def project_perturbed(agent, U0, eps, sums=False):
     eps: (N, nu, K), or a view with a zero stride along N (one constant perturbation per sample),
     read then as one contiguous (1, nu, K) block.
     """
-    if eps.strides[0] == 0:  # constant: one contiguous (1, nu, K) block for every step
-        eps = eps[:1]
-    out = np.zeros((agent.nu, eps.shape[2])) if sums else _NO_SUMS
-    if agent.norm_axes is None:  # a box: one pass, the same values as np.clip
-        u, e = _clip_box(U0, eps, agent.lower, agent.upper, out)
-    elif len(agent.norm_axes) == 2:  # box and disc (holonomic): Agent.project's values
-        u, e = _clip_box_disc(
-            U0, eps, agent.lower, agent.upper, *agent.norm_axes, agent.norm_limit, out
-        )
-    else:
-        u = agent.project(U0[:, :, None] + eps)
-        e = u - U0[:, :, None]
-        out = horizon_sums(e) if sums else out
+    u, e = np.empty(eps.shape), np.empty(eps.shape)
+    out = np.zeros((agent.nu, eps.shape[2])) if sums else NO_SUMS
+    project_columns(agent, U0, eps, u, e, out)
     return (u, e, out) if sums else (u, e)
 
 
-@numba.njit(cache=True)
-def _clip_box(U0, eps, lower, upper, sums):
-    """u = min(max(U0 + eps, lower), upper) and u - U0, both (N, nu, K), in one pass.
+def project_columns(agent, U0, eps, u, e, sums, cols=None):
+    """project_perturbed of the samples cols = (j0, j1) (None: all), written in place into
+    their columns of u, e (N, nu, K) and sums (nu, K) zeros (or NO_SUMS: none asked)."""
+    if eps.strides[0] == 0:  # constant: one contiguous (1, nu, K) block for every step
+        eps = eps[:1]
+    if agent.norm_axes is None:  # a box: one pass, the same values as np.clip
+        _clip_box(U0, eps, agent.lower, agent.upper, sums, u, e, cols)
+    elif len(agent.norm_axes) == 2:  # box and disc (holonomic): Agent.project's values
+        _clip_box_disc(
+            U0, eps, agent.lower, agent.upper, *agent.norm_axes, agent.norm_limit, sums, u, e,
+            cols,
+        )  # fmt: skip
+    else:
+        j0, j1 = cols or (0, eps.shape[2])
+        u[:, :, j0:j1] = agent.project(U0[:, :, None] + eps[:, :, j0:j1])
+        e[:, :, j0:j1] = u[:, :, j0:j1] - U0[:, :, None]
+        if len(sums):
+            sums[:, j0:j1] = horizon_sums(np.ascontiguousarray(e[:, :, j0:j1]))
+
+
+@numba.njit(cache=True, nogil=True)
+def _clip_box(U0, eps, lower, upper, sums, u, e, cols):
+    """u = min(max(U0 + eps, lower), upper) and u - U0 in columns cols of u, e (N, nu, K)
+    (threads.in_cols), in one pass.
 
     U0: (N, nu); eps: (N, nu, K), or (1, nu, K): the same perturbation at every step (constant),
     read from one contiguous block; lower, upper: (nu,); sums: (nu, K) zeros that get the
     horizon sums of u - U0 (step by step, in order), or an empty array for none.
     """
     n, nu = U0.shape
-    k = eps.shape[2]
     each, add = eps.shape[0] > 1, len(sums) > 0
-    u = np.empty((n, nu, k))
-    e = np.empty((n, nu, k))
     for i in range(n):
         for c in range(nu):
             u0, lo, hi = U0[i, c], lower[c], upper[c]
-            row, out_u, out_e = eps[i if each else 0, c], u[i, c], e[i, c]
-            for j in range(k):
+            row = in_cols(eps[i if each else 0, c], cols)
+            out_u, out_e = in_cols(u[i, c], cols), in_cols(e[i, c], cols)
+            for j in range(len(row)):
                 v = min(max(u0 + row[j], lo), hi)
                 out_u[j] = v
                 out_e[j] = v - u0
             if add:
-                total = sums[c]
-                for j in range(k):
+                total = in_cols(sums[c], cols)
+                for j in range(len(row)):
                     total[j] += out_e[j]
-    return u, e
 
 
-@numba.njit(cache=True)
-def _clip_box_disc(U0, eps, lower, upper, p, q, limit, sums):
+@numba.njit(cache=True, nogil=True)
+def _clip_box_disc(U0, eps, lower, upper, p, q, limit, sums, u, e, cols):
     """As _clip_box, then controls p and q scaled back onto |(u_p, u_q)| <= limit; one pass,
-    the scale selected without a branch (1 inside the disc) so the loop vectorises."""
+    the scale selected without a branch (1 inside the disc) so the loop vectorises. The scales
+    go through a scratch row: the loop that reads u_p and u_q writes neither (u may be any
+    caller's array, so the compiler cannot tell its rows apart)."""
     n, nu = U0.shape
-    k = eps.shape[2]
+    k = n_cols(u.shape[2], cols)
     each, add = eps.shape[0] > 1, len(sums) > 0
-    u = np.empty((n, nu, k))
-    e = np.empty((n, nu, k))
+    scales = np.empty(k)
     for i in range(n):
         for c in range(nu):
             u0, lo, hi = U0[i, c], lower[c], upper[c]
-            row, out_u = eps[i if each else 0, c], u[i, c]
+            row, out_u = in_cols(eps[i if each else 0, c], cols), in_cols(u[i, c], cols)
             for j in range(k):
                 out_u[j] = min(max(u0 + row[j], lo), hi)
-        up, uq = u[i, p], u[i, q]
+        up, uq = in_cols(u[i, p], cols), in_cols(u[i, q], cols)
         for j in range(k):
             norm = np.sqrt(up[j] * up[j] + uq[j] * uq[j])
-            scale = limit / max(norm, 1e-300) if norm > limit else 1.0
-            up[j] *= scale
-            uq[j] *= scale
+            scales[j] = limit / max(norm, 1e-300) if norm > limit else 1.0
         for c in range(nu):
-            u0, out_u, out_e = U0[i, c], u[i, c], e[i, c]
-            for j in range(k):
-                out_e[j] = out_u[j] - u0
+            u0, out_u, out_e = U0[i, c], in_cols(u[i, c], cols), in_cols(e[i, c], cols)
+            if c == p or c == q:
+                for j in range(k):
+                    v = out_u[j] * scales[j]
+                    out_u[j] = v
+                    out_e[j] = v - u0
+            else:
+                for j in range(k):
+                    out_e[j] = out_u[j] - u0
             if add:
-                total = sums[c]
+                total = in_cols(sums[c], cols)
                 for j in range(k):
                     total[j] += out_e[j]
-    return u, e
 
 
-_NO_SUMS = np.zeros((0, 0))  # the clip kernels' `sums` when none are asked for
+NO_SUMS = np.zeros((0, 0))  # the clip kernels' `sums` when none are asked for
 
 
 @numba.njit(cache=True)

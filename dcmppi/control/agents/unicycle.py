@@ -7,7 +7,7 @@ State (x, y, theta); controls the forward speed v in [0, v_max] and the turn rat
 import numpy as np
 
 from .. import defaults
-from ..dynamics import arc_rollout, dubins_step, sinc
+from ..dynamics import arc_columns, arc_rollout, dubins_step, sinc
 from ..validation import positive
 from .base import Agent, register_agent
 from .dubins import arc_jacobians, jacobian_terms
@@ -40,6 +40,9 @@ class Unicycle(Agent):
 
     def rollout(self, x0, u, dt, starts=1):
         return arc_rollout(x0, u, dt, None, starts)  # u: (N, 2, K) speeds, turn rates
+
+    def rollout_columns(self, out, u, dt, cols=None, sharp=False):
+        return arc_columns(out, u, dt, None, cols, sharp)
 
     def step(self, state, u, dt):
         u = np.asarray(u, dtype=float)

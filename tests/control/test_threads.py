@@ -1,0 +1,105 @@
+"""threads=: the samples' work split over threads gives the plans of one thread, bit for bit."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+from threadpoolctl import threadpool_limits
+
+import dcmppi
+from dcmppi.control.dynamics import arc_columns
+from dcmppi.control.threads import ALIGN, parts
+
+GOAL = np.array([12.0, 1.0])
+STATIC = np.array([[4.0, 0.5, 0.6], [7.0, -1.0, 0.8], [9.0, 2.0, 0.5]])
+MODEL = np.array([0.8, 0.2, 0.0, 0.3])  # v_mean, v_std, omega_mean, omega_std
+PUSH = np.array([0.03, -0.02, 0.01])  # tube: the real state leaves the nominal every step
+
+
+def moving(step):
+    """(4, 4) moving cylinders at step `step`: crossing the robot's way."""
+    x = np.array([5.0, 8.0, 10.0, 3.0]) - 0.08 * step
+    y = np.array([-2.0, 2.5, 0.0, 3.0]) + 0.05 * step
+    return np.column_stack([x, y, np.full(4, np.pi), np.full(4, 0.4)])
+
+
+def closed_loop(name, agent, threads, steps=4, **params):
+    """The actions and per-step diagnostics of `steps` closed-loop steps."""
+    ctrl = dcmppi.make_controller(name, agent=agent, K=300, N=20, seed=3, threads=threads, **params)
+    state, actions, records = np.array([0.0, 0.0, 0.2]), [], []
+    for step in range(steps):
+        u = ctrl.act(state, GOAL, STATIC, moving(step), MODEL, bounds=(-5, -5, 20, 8))
+        actions.append(u)
+        records.append(dataclasses.asdict(ctrl.diagnostics))
+        state = ctrl.agent.step(state, u, ctrl.dt) + (PUSH if name == "tube" else 0.0)
+    return np.array(actions), records
+
+
+def assert_same(a, b, path=""):
+    """Values equal bit for bit (nan equal to nan), recursing into dicts and predictions."""
+    if isinstance(a, dict):
+        assert a.keys() == b.keys(), path
+        for key in a:
+            assert_same(a[key], b[key], f"{path}.{key}")
+    elif dataclasses.is_dataclass(a):
+        assert_same(dataclasses.asdict(a), dataclasses.asdict(b), path)
+    elif isinstance(a, (np.ndarray, float, int, np.floating)) and not isinstance(a, bool):
+        a, b = np.asarray(a), np.asarray(b)
+        assert a.shape == b.shape and np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), path
+    else:
+        assert a == b, path
+
+
+@pytest.mark.parametrize("agent", ["dubins", "unicycle", "holonomic"])
+@pytest.mark.parametrize("name", ["mppi", "clustered", "dc", "tube"])
+def test_two_threads_plan_as_one(name, agent):
+    with threadpool_limits(1):  # BLAS's own threads split its products by its own rule
+        one, records_one = closed_loop(name, agent, threads=1)
+        two, records_two = closed_loop(name, agent, threads=2)
+    assert np.array_equal(one, two)
+    for a, b in zip(records_one, records_two, strict=True):
+        assert_same(a, b)
+    assert records_one[-1]["J"].std() > 0  # the samples differ: a split could show
+
+
+def test_three_threads_and_the_auto_temperature():
+    with threadpool_limits(1):
+        one, _ = closed_loop("clustered", "holonomic", 1, lambda_="auto")
+        three, _ = closed_loop("clustered", "holonomic", 3, lambda_="auto")
+    assert len(parts(300, 3)) == 3 and np.array_equal(one, three)
+
+
+def test_sharp_arcs_in_one_part_only():
+    """An arc beyond sinc's series in one part: every part takes the whole batch's sinc."""
+    ctrl = dcmppi.make_controller("mppi", r_min=0.1, K=300, N=20, seed=0, threads=2)
+    state = np.zeros(3)
+    ctrl.act(state, GOAL)  # sets the warm start and the step's objective
+    eps = np.zeros((ctrl.N, 1, ctrl.K))
+    eps[:, 0, 250] = 8.0  # |omega dt / 2| = 0.4: beyond the series, in the second part
+    eps[:, 0, :250] = np.linspace(-0.5, 0.5, 250)  # within it
+    with threadpool_limits(1):
+        split = ctrl.perturbed_rollouts(state, eps)
+        ctrl.threads = 1
+        whole = ctrl.perturbed_rollouts(state, eps)
+    for a, b in zip(split, whole, strict=True):
+        assert np.array_equal(a, b)
+    # The first part alone, with the series, would differ in the last bits.
+    u = np.clip(ctrl.U[:, :, None] + eps, -10.0, 10.0)
+    out = np.zeros((3, ctrl.N + 1, 1, ctrl.K))
+    assert not arc_columns(out, u, ctrl.dt, 1.0, (0, 192))
+    assert not np.array_equal(out[:, :, 0, :192], whole[1][:, :, :192])
+
+
+def test_parts_cover_the_samples_at_aligned_boundaries():
+    for k, threads in [(300, 2), (2048, 2), (2048, 3), (500, 4), (64, 2), (1, 8)]:
+        ranges = parts(k, threads)
+        assert ranges[0][0] == 0 and ranges[-1][1] == k and len(ranges) <= threads
+        for (_, end), (start, _) in zip(ranges[:-1], ranges[1:], strict=True):
+            assert end == start and start % ALIGN == 0
+    assert parts(64, 2) == [(0, 64)]
+
+
+@pytest.mark.parametrize("bad", [0, -1, 1.5, "2", True, None])
+def test_threads_must_be_a_positive_integer(bad):
+    with pytest.raises(ValueError, match="^threads must be"):
+        dcmppi.make_controller("mppi", threads=bad)

@@ -57,7 +57,7 @@ def reach(spec: EpisodeSpec) -> Reach:
     env = make_env(spec)
     env.reset()
     task, world = env.task, env.task.world
-    if world.behavior != "constant" and world.robot_visible:
+    if not exogenous(world):
         raise ValueError(
             f"{spec.task}: the pedestrians react to the robot (robot_visible), so their paths "
             "depend on the controller; reachability needs robot_visible=false"
@@ -70,7 +70,7 @@ def reach(spec: EpisodeSpec) -> Reach:
         GOAL_TOLERANCE,
         world.map_bounds,
         world.static[world.static[:, 2] > 0],
-        _tracks(env, steps),
+        obstacle_tracks(env, steps),
         world.moving[:, 3],
         task.robot_radius,
         task.agent.max_speed,
@@ -106,9 +106,10 @@ def propagate(start, goal, tolerance, bounds, static, tracks, radii, radius, v_m
     return Reach(False, False, None, float(to_goal[R].min()))
 
 
-def _tracks(env, steps):
-    """The moving obstacles' centres (L, 2) after each of `steps` control steps, one step at a
-    time, stepped by their own model without the robot (which they ignore)."""
+def obstacle_tracks(env, steps):
+    """The moving obstacles' centres (L, 2) after each of `steps` control steps of a freshly
+    reset `env`, one step at a time, stepped by their own model without the robot: their true
+    future where they ignore the robot (see `exogenous`)."""
     physics, world = env.physics, env.task.world
     moving = physics.obstacle_motion
     n_sub = int(round(env.control_timestep() / physics.timestep()))
@@ -120,6 +121,12 @@ def _tracks(env, steps):
         advance = (n_sub,) if world.behavior == "constant" else (n_sub, far, still)
         z = moving.advance(*advance)[-1]
         yield np.stack([z.real, z.imag], axis=-1)
+
+
+def exogenous(world) -> bool:
+    """Whether the moving obstacles of `world` ignore the robot (their paths are the same for
+    every controller): Dubins arcs, or pedestrians with robot_visible false."""
+    return world.behavior == "constant" or not world.robot_visible
 
 
 def _index(value, low, cell, n) -> int:

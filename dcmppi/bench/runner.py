@@ -122,9 +122,9 @@ def act(controller, observation) -> np.ndarray:
     """The controller's action for a task observation, as the task's action array (nu,).
 
     Calls act(state, goal, static, moving, obstacle_model) and passes the map's bounds as
-    `bounds`, and the observed velocities of the moving obstacles as `moving_velocity` where the
-    observation has them, to controllers whose act takes that keyword (dcmppi's do; a user's
-    may not)."""
+    `bounds`, and the observed velocities of the moving obstacles as `moving_velocity` (and the
+    true futures as `moving_futures`, see `TrueFutures`) where the observation has them, to
+    controllers whose act takes that keyword (dcmppi's do; a user's may not)."""
     args = (
         observation["robot_pose"],
         observation["goal"],
@@ -134,8 +134,9 @@ def act(controller, observation) -> np.ndarray:
     )
     cls = type(controller)
     extra = {"bounds": observation["map_bounds"]}
-    if "moving_velocity" in observation:
-        extra["moving_velocity"] = observation["moving_velocity"]
+    for name in ("moving_velocity", "moving_futures"):
+        if name in observation:
+            extra[name] = observation[name]
     u = controller.act(*args, **{k: v for k, v in extra.items() if _takes(cls, k)})
     return np.asarray(u, dtype=np.float64).reshape(-1)
 
@@ -337,6 +338,39 @@ class FieldMetrics:
         }
 
 
+class TrueFutures:
+    """The moving obstacles' true futures for a controller whose predictor takes "futures"
+    (prediction="given"): where they ignore the robot, one run of their own model from the
+    episode's start (dcmppi.bench.reachability.obstacle_tracks) is their future at every step.
+
+    `at(step)`: (L, 1, N + 1, 2) their centres after step, step + 1, ..., step + N control
+    steps (one future each).
+    """
+
+    def __init__(self, spec: EpisodeSpec, N: int):
+        from dcmppi.bench.reachability import exogenous, obstacle_tracks
+
+        env = make_env(spec)
+        env.reset()
+        task, world = env.task, env.task.world
+        if not exogenous(world):
+            raise ValueError(
+                f"prediction 'given' in a benchmark takes the obstacles' true futures, which exist "
+                f"in advance only where they ignore the robot; {spec.task} has robot_visible=true"
+            )
+        steps = int(np.ceil(task.time_limit / env.control_timestep())) + N
+        tracks = [world.moving[:, :2], *obstacle_tracks(env, steps)]  # (steps + 1) x (L, 2)
+        self.tracks = np.stack(tracks, axis=1)[:, None]  # (L, 1, steps + 1, 2)
+        self.N = N
+
+    def at(self, step: int) -> np.ndarray:
+        return self.tracks[:, :, step : step + self.N + 1]
+
+
+def _wants_futures(controller) -> bool:
+    return "futures" in getattr(getattr(controller, "predictor", None), "inputs", ())
+
+
 class Episode:
     """A running episode of `spec`, advanced one control step at a time.
 
@@ -353,8 +387,10 @@ class Episode:
         self.controller = controller_for(spec)
         self.controller.reset()
         self.time_step = self.env.reset()
-        warm_up(spec, self.time_step.observation)
+        wants = _wants_futures(self.controller)
+        self.true_futures = TrueFutures(spec, self.controller.N) if wants else None
         self.poses = [self.time_step.observation["robot_pose"].copy()]
+        warm_up(spec, self.observation)
         self.ctrl_s: list[float] = []
         self.env_s: list[float] = []
         self.diagnosis = Diagnosis()
@@ -368,9 +404,17 @@ class Episode:
     def done(self) -> bool:
         return self.time_step.last()
 
+    @property
+    def observation(self) -> dict:
+        """The task's observation now, with the true futures where the controller takes them."""
+        observation = self.time_step.observation
+        if self.true_futures is None:
+            return observation
+        return {**observation, "moving_futures": self.true_futures.at(len(self.poses) - 1)}
+
     def step(self) -> None:
         """One control step: the controller acts on the observation, the task steps."""
-        observation = self.time_step.observation
+        observation = self.observation
         t0 = time.perf_counter()
         action = act(self.controller, observation)
         t1 = time.perf_counter()

@@ -202,6 +202,7 @@ class Controller:
         obstacle_model=None,
         bounds=None,
         moving_velocity=None,
+        moving_futures=None,
     ):
         """Controls to apply now.
 
@@ -215,6 +216,8 @@ class Controller:
             centre leaves the map costs alpha, as a collision with the static map does.
           moving_velocity: (L, 2) world-frame velocities of the rows of `moving` (nan rows: not
             observed), or None; given to predictors whose `inputs` name "velocity".
+          moving_futures: (L, F, N + 1, 2) the caller's F futures of each row of `moving` at the
+            rollout steps, or None; given to predictors whose `inputs` name "futures" ("given").
         Returns:
           (nu,) controls within the agent's bounds (dubins: the turn rate omega).
         """
@@ -234,9 +237,10 @@ class Controller:
         observed = moving
         moving = valid_cylinders(moving, "moving", columns=4, unobserved=2)
         velocity = observed_velocity(moving_velocity, observed)
+        futures = observed_rows(moving_futures, observed, "moving_futures")
         with self.timer("prediction"):
             prediction = self.predictor.predict(
-                state, moving, obstacle_model, self.rng, **self._inputs(state, velocity)
+                state, moving, obstacle_model, self.rng, **self._inputs(state, velocity, futures)
             )
             self.objective = Objective(goal, self._grid, self.alpha, prediction)
         self.diagnostics.prediction = prediction
@@ -247,11 +251,13 @@ class Controller:
     def _solve(self, state):
         raise NotImplementedError
 
-    def _inputs(self, state, velocity):
+    def _inputs(self, state, velocity, futures):
         """The keywords named in the predictor's `inputs` (predictors.base.INPUTS)."""
         inputs = {}
         if "velocity" in self.predictor.inputs:
             inputs["velocity"] = velocity
+        if "futures" in self.predictor.inputs:
+            inputs["futures"] = futures
         if "robot_plan" in self.predictor.inputs:
             inputs["robot_plan"] = self.agent.rollout_one(state, self.U, self.dt)
         return inputs
@@ -386,6 +392,20 @@ def temperature_param(value):
         return positive("lambda_", value)
     except ValueError:
         raise ValueError(f"lambda_ must be a number > 0 or 'auto'; got {value!r}") from None
+
+
+def observed_rows(values, moving, name):
+    """The rows of `values` (L, ...) that belong to rows of `moving` (L, 4) that are not padding
+    (radius > 0), or None; checked only for their number of rows (the predictor checks the rest)."""
+    if values is None:
+        return None
+    values = np.asarray(values, dtype=float)
+    radius = np.zeros(0) if moving is None else np.asarray(moving, dtype=float)[:, 3]
+    if values.ndim < 1 or len(values) != len(radius):
+        raise ValueError(
+            f"{name} must have one row per row of moving ({len(radius)}); got shape {values.shape}"
+        )
+    return values[radius > 0]
 
 
 def observed_velocity(velocity, moving):

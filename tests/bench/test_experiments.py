@@ -59,6 +59,7 @@ def test_shipped_experiments_hold_the_papers_setup():
         assert walking.task_params["behavior"] == behavior
         assert walking.task_params["robot_visible"] is visible
         assert walking.controller_params == dynamic.controller_params
+        oracle = ("mppi-oracle", "dc-oracle") if name == "square-orca" else ()
         assert walking.labels == (
             "mppi",
             "mppi+margin",
@@ -67,8 +68,11 @@ def test_shipped_experiments_hold_the_papers_setup():
             "dc-cv",
             "dc-social",
             "dc-social-blind",
+            *oracle,
         )
         assert walking.row("dc-social").params == {"prediction": "social"}
+    square = load_experiment("square-orca")
+    assert square.row("dc-oracle").params == {"prediction": "given"}
     mismatch = load_experiment("corridor-mismatch")
     assert mismatch.row("dc-ekf-walk").params["process_std"] == [0.01, 0.01, 0.3, 0.5, 1.0]
     assert mismatch.labels == (

@@ -1,10 +1,14 @@
-"""The ideal robot's reachable set: open ground, a disc it cannot escape, one it can, walls."""
+"""The ideal robot's reachable set: open ground, a disc it cannot escape, one it can, walls;
+the true futures the runner gives prediction="given"."""
+
+import dataclasses
 
 import numpy as np
 import pytest
 
 from dcmppi.bench.experiments import load_experiment
 from dcmppi.bench.reachability import propagate, reach
+from dcmppi.bench.runner import Episode
 
 BOUNDS = np.array([0.0, 0.0, 10.0, 10.0])
 NO_STATIC = np.empty((0, 3))
@@ -66,3 +70,31 @@ def test_square_environment_zero_is_solvable_in_about_the_straight_time():
     exp = load_experiment("square-orca")
     r = reach(exp.spec("none", "dc-cv", 0))
     assert r.solvable and 5.0 / 1.02 - 0.1 <= r.time <= 12.0
+
+
+def _given(name, **task_params):
+    exp = load_experiment(name).with_params({"time_limit": 3.0, **task_params}, {})
+    spec = exp.spec(exp.noises[0], "dc", 1)
+    return dataclasses.replace(spec, controller_params={"prediction": "given", "K": 64})
+
+
+def test_a_given_prediction_gets_the_true_futures_of_blind_pedestrians():
+    """What the runner hands prediction="given": at every step its futures start at the observed
+    pedestrians and step k of them is where they are k steps later."""
+    episode = Episode(_given("square-orca"))
+    seen, handed = [], []
+    while not episode.done:
+        seen.append(episode.observation["moving_obstacles"][:, :2])
+        handed.append(episode.observation["moving_futures"])
+        episode.step()
+    assert len(seen) == 30 and handed[0].shape == (7, 1, 51, 2)
+    for k in range(len(seen)):
+        np.testing.assert_array_equal(handed[k][:, 0, 0], seen[k])
+        for j in range(1, len(seen) - k):
+            np.testing.assert_array_equal(handed[k][:, 0, j], seen[k + j])
+    assert episode.result()["outcome"] in ("goal", "time_limit", "collision")
+
+
+def test_a_given_prediction_is_refused_where_pedestrians_react():
+    with pytest.raises(ValueError, match="exist in advance only where they ignore the robot"):
+        Episode(_given("corridor-visible"))

@@ -9,14 +9,15 @@ parameters (`own_params`) alongside the planner's. Built in:
 - "ekf": P futures drawn from a Gaussian-sum EKF of each obstacle (parameter measurement_std);
 - "cv": P constant-velocity futures from the observed velocities (parameter cv_std);
 - "social": P social-force futures of the pedestrians, pushed by each other and the robot's plan
-  (parameter cv_std).
+  (parameter cv_std);
+- "given": the caller's own futures (act's moving_futures), e.g. a forecaster's or the truth.
 A new predictor is a `Predictor` subclass registered by name (README, "Your own predictor").
 
 May import numpy, numba and dcmppi.control's kernels (dynamics, normal, social, validation);
 never a planner, MuJoCo or the tasks (a predictor sees observations, not the world).
 """
 
-from . import cv, ekf, frozen, prior, social  # noqa: F401  (registers the built-in predictors)
+from . import cv, ekf, frozen, given, prior, social  # noqa: F401  (registers the built-in predictors)
 from .base import (
     Prediction,
     Predictor,

@@ -10,8 +10,9 @@ import numpy as np
 _PREDICTORS: dict[str, type] = {}
 # what a controller gives a predictor on top of the observation, for the names in its `inputs`:
 # velocity (L, 2) the moving obstacles' observed velocities (nan rows: not observed) or None;
-# robot_plan (N + 1, 3) the robot's states along the planner's warm start from the current state
-INPUTS = ("velocity", "robot_plan")
+# robot_plan (N + 1, 3) the robot's states along the planner's warm start from the current state;
+# futures (L, F, N + 1, 2) the caller's own futures of the obstacles (act's moving_futures)
+INPUTS = ("velocity", "robot_plan", "futures")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,7 +55,8 @@ class Predictor:
     every moving obstacle's radius [m]. A subclass lists its own keyword parameters in
     `own_params` and implements `predict`; `reset` forgets what it learnt in an episode.
     `inputs` names the extra keywords its `predict` takes from the controller (INPUTS:
-    "velocity", "robot_plan"); without them predict is called with the four arguments alone.
+    "velocity", "robot_plan", "futures"); without them predict is called with the four arguments
+    alone.
     """
 
     name = None
@@ -83,7 +85,7 @@ class Predictor:
             moving obstacles now (heading nan: not observed; padding rows removed).
           obstacle_model: (4,) v_mean, v_std, omega_mean, omega_std of the obstacles, or None.
           rng: the planner's np.random.Generator (draw only from it: same seed, same plans).
-          velocity=, robot_plan=: where named in `inputs` (INPUTS).
+          velocity=, robot_plan=, futures=: where named in `inputs` (INPUTS).
         """
         raise NotImplementedError
 

@@ -1,0 +1,60 @@
+"""Futures the caller gives: Controller.act(..., moving_futures=) (predictor input "futures").
+
+For a robot whose own forecaster (a learnt model, a tracker's) predicts the moving obstacles,
+and for the benchmark's oracle: where the obstacles ignore the robot their true paths are known
+in advance (dcmppi.bench.runner gives them), which says how far a planner gets with a perfect
+prediction. F futures per obstacle, each weight beta / F; a certain collision costs beta, as
+with the sampled futures of "prior".
+"""
+
+import numpy as np
+
+from .base import Prediction, Predictor, register_predictor
+
+
+@register_predictor("given")
+class Given(Predictor):
+    """The caller's futures (L, F, N + 1, 2) of the L moving obstacles (module docstring)."""
+
+    inputs = ("futures",)
+
+    def predict(self, state, moving, obstacle_model, rng, futures=None):
+        if len(moving) == 0:
+            return self.none()
+        futures = check_futures(futures, len(moving), self.N)
+        radius = moving[:, 3] + self.obstacle_margin
+        count = futures.shape[1]
+        return Prediction(
+            futures.reshape(-1, self.N + 1, 2),
+            np.repeat(radius + self.robot_radius, count),
+            self.beta / count,
+            futures,
+            collision_cost=self.beta,
+        )
+
+    def empty(self):
+        return Prediction(
+            np.zeros((0, self.N + 1, 2)),
+            np.zeros(0),
+            self.beta,
+            np.zeros((0, 1, self.N + 1, 2)),
+            collision_cost=self.beta,
+        )
+
+
+def check_futures(futures, L, N) -> np.ndarray:
+    """The (L, F, N + 1, 2) finite futures of L obstacles over N steps, or one ValueError."""
+    if futures is None:
+        raise ValueError(
+            "prediction 'given' needs the moving obstacles' futures: act(..., moving_futures=) "
+            f"of shape ({L}, F, {N + 1}, 2)"
+        )
+    futures = np.asarray(futures, dtype=float)
+    if futures.ndim != 4 or futures.shape[0] != L or futures.shape[2:] != (N + 1, 2):
+        raise ValueError(
+            f"moving_futures must have shape ({L}, F, {N + 1}, 2): F futures of the {L} moving "
+            f"obstacles at the {N + 1} rollout steps; got {futures.shape}"
+        )
+    if futures.shape[1] < 1 or not np.isfinite(futures).all():
+        raise ValueError("moving_futures must hold at least one future, all finite")
+    return futures

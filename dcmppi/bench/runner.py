@@ -341,14 +341,14 @@ class FieldMetrics:
 class TrueFutures:
     """The moving obstacles' true futures for a controller whose predictor takes "futures"
     (prediction="given"): where they ignore the robot, one run of their own model from the
-    episode's start (dcmppi.bench.reachability.obstacle_tracks) is their future at every step.
+    episode's start (dcmppi.bench.futures.obstacle_tracks) is their future at every step.
 
     `at(step)`: (L, 1, N + 1, 2) their centres after step, step + 1, ..., step + N control
     steps (one future each).
     """
 
     def __init__(self, spec: EpisodeSpec, N: int):
-        from dcmppi.bench.reachability import exogenous, obstacle_tracks
+        from dcmppi.bench.futures import exogenous, obstacle_tracks
 
         env = make_env(spec)
         env.reset()

@@ -21,6 +21,7 @@ TV, MIXED = {"perturbation": "time_varying"}, {"perturbation": "mixed"}
 # the pedestrian experiments' shared parameters (those of `dynamic`): the holonomic robot
 WALK = {"agent": "holonomic", **MIXED, "Sigma": [1.0, 1.0, 0.1], "gamma": 1.0, "beta": 100.0}
 CV, SOCIAL = {**WALK, "prediction": "cv"}, {**WALK, "prediction": "social"}
+BIG = {**TV, "K": 2048, "N": 100}
 CASES = (
     Case("mppi", "mppi", "forest", target_ms=0.2),
     Case("mppi tv", "mppi", "forest", TV, target_ms=0.3),
@@ -77,6 +78,17 @@ CASES = (
     Case("dc-social", "dc", "corridor", SOCIAL, target_ms=5.0),
     Case("mppi", "mppi", "crowd-sf", WALK),
     Case("dc-social", "dc", "crowd-sf", SOCIAL, target_ms=20.0),
+    # the size practitioners run (issue 26), and its samples split over 2 threads (same plan:
+    # the two rows' fingerprints are equal)
+    Case("mppi tv 2048x100", "mppi", "forest", BIG),
+    Case(
+        "mppi tv 2048x100 threads=2",
+        "mppi",
+        "forest",
+        {**BIG, "threads": 2},
+        "mppi tv 2048x100",
+        target_ratio=round(1 / 1.7, 2),
+    ),
 )
 
 # `--fingerprint`: every row of the table and the variants that take other code paths

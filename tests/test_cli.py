@@ -115,4 +115,4 @@ def test_reach_refuses_pedestrians_that_react(capsys):
     argv = ["reach", "--experiment", "corridor-visible", "--episodes", "1", "--no-progress"]
     assert cli.main(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "reachability needs robot_visible=false" in err[0]
+    assert len(err) == 1 and "reachability needs obstacles whose paths do not depend" in err[0]

@@ -13,6 +13,19 @@ def exogenous(world) -> bool:
     return world.behavior == "constant" or not world.robot_visible
 
 
+def reset_exogenous(env, task: str, use: str):
+    """Reset `env` and return its world; a ValueError naming `use` (what needs the obstacles'
+    own future) where its moving obstacles react to the robot."""
+    env.reset()
+    world = env.task.world
+    if not exogenous(world):
+        raise ValueError(
+            f"{use} needs obstacles whose paths do not depend on the controller; the pedestrians "
+            f"of {task} react to the robot (robot_visible=true): use robot_visible=false"
+        )
+    return world
+
+
 def obstacle_tracks(env, steps):
     """The moving obstacles' centres (L, 2) after each of `steps` control steps of a freshly
     reset `env`, one step at a time, stepped by their own model without the robot: their true

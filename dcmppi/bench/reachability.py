@@ -30,7 +30,7 @@ import math
 
 import numpy as np
 
-from dcmppi.bench.futures import exogenous, obstacle_tracks
+from dcmppi.bench.futures import obstacle_tracks, reset_exogenous
 from dcmppi.bench.runner import EpisodeSpec, make_env
 
 STEP_CELLS = 5  # cells per control period at top speed
@@ -56,13 +56,7 @@ def reach(spec: EpisodeSpec) -> Reach:
     from dcmppi.tasks.navigation import GOAL_TOLERANCE
 
     env = make_env(spec)
-    env.reset()
-    task, world = env.task, env.task.world
-    if not exogenous(world):
-        raise ValueError(
-            f"{spec.task}: the pedestrians react to the robot (robot_visible), so their paths "
-            "depend on the controller; reachability needs robot_visible=false"
-        )
+    world, task = reset_exogenous(env, spec.task, "reachability"), env.task
     dt = env.control_timestep()
     steps = int(math.ceil(task.time_limit / dt))
     return propagate(

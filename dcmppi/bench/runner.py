@@ -348,17 +348,11 @@ class TrueFutures:
     """
 
     def __init__(self, spec: EpisodeSpec, N: int):
-        from dcmppi.bench.futures import exogenous, obstacle_tracks
+        from dcmppi.bench.futures import obstacle_tracks, reset_exogenous
 
         env = make_env(spec)
-        env.reset()
-        task, world = env.task, env.task.world
-        if not exogenous(world):
-            raise ValueError(
-                f"prediction 'given' in a benchmark takes the obstacles' true futures, which exist "
-                f"in advance only where they ignore the robot; {spec.task} has robot_visible=true"
-            )
-        steps = int(np.ceil(task.time_limit / env.control_timestep())) + N
+        world = reset_exogenous(env, spec.task, "prediction 'given' (the true futures)")
+        steps = int(np.ceil(env.task.time_limit / env.control_timestep())) + N
         tracks = [world.moving[:, :2], *obstacle_tracks(env, steps)]  # (steps + 1) x (L, 2)
         self.tracks = np.stack(tracks, axis=1)[:, None]  # (L, 1, steps + 1, 2)
         self.N = N

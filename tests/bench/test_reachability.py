@@ -61,7 +61,7 @@ def test_a_gap_in_the_wall_is_found():
 
 def test_a_task_whose_pedestrians_react_is_refused():
     exp = load_experiment("corridor-visible")
-    with pytest.raises(ValueError, match="react to the robot .robot_visible."):
+    with pytest.raises(ValueError, match="react to the robot .robot_visible=true."):
         reach(exp.spec("none", "mppi", 0))
 
 
@@ -96,5 +96,5 @@ def test_a_given_prediction_gets_the_true_futures_of_blind_pedestrians():
 
 
 def test_a_given_prediction_is_refused_where_pedestrians_react():
-    with pytest.raises(ValueError, match="exist in advance only where they ignore the robot"):
+    with pytest.raises(ValueError, match="prediction .given. .the true futures. needs obstacles"):
         Episode(_given("corridor-visible"))

@@ -371,8 +371,16 @@ def cmd_reach(args) -> int:
     rows = []
     if args.db:
         db = ResultsDB(args.db)
-        rows = db.rows()
+        rows, config = db.rows(), db.config
         db.close()
+        mine = exp.config()
+        keys = ("task", "base_seed", "env_param", "task_params")
+        differ = [k for k in keys if config.get(k) != mine.get(k)]
+        if differ:
+            raise ValueError(
+                f"{args.db} holds another experiment's environments ({', '.join(differ)} differ "
+                f"from {exp.name}'s); pass its --experiment and --task-param values"
+            )
 
     def progress(done, total):
         if not args.no_progress:
@@ -522,7 +530,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--episode-timeout",
         type=float,
         metavar="S",
-        help="record an episode still running after S seconds as a timeout error and go on",
+        help="record an episode still running after S seconds as a timeout error and go on (the "
+        "clock starts when a worker receives it: a fresh worker's start-up, about a second, "
+        "counts)",
     )
     p.add_argument(
         "--allow-mixed",

@@ -98,7 +98,9 @@ def test_shards_report_replay_and_a_mixed_resume(mine, capsys):
 
 @pytest.mark.slow
 def test_reach_counts_solvable_environments_and_splits_a_databases_collisions(tmp_path, capsys):
-    db = ResultsDB(tmp_path / "sq.db", {"x": 1})
+    from dcmppi.bench.experiments import load_experiment
+
+    db = ResultsDB(tmp_path / "sq.db", load_experiment("square-orca").config())
     spec = type("Spec", (), {"controller": "mppi", "task": "square", "seed": 0})()
     spec.task_params = spec.controller_params = spec.shared_params = {}
     db.record(("none", "mine", 0), spec, {"outcome": "collision", "collision": 1})
@@ -109,6 +111,9 @@ def test_reach_counts_solvable_environments_and_splits_a_databases_collisions(tm
     out = capsys.readouterr().out
     assert "square-orca: 2 environments: 2 solvable by the ideal robot" in out
     assert "mine: 1 of 2 episodes collided, 0 of them where every controller collides" in out
+    other = ["reach", "--experiment", "corridor", "--episodes", "1", "--no-progress"]
+    assert cli.main([*other, "--db", str(tmp_path / "sq.db")]) == 2  # another experiment's rows
+    assert "holds another experiment's environments (task, base_seed" in capsys.readouterr().err
 
 
 def test_reach_refuses_pedestrians_that_react(capsys):

@@ -46,8 +46,12 @@ def run_safely(spec: EpisodeSpec) -> dict:
     except KeyboardInterrupt:
         raise
     except BaseException as e:  # noqa: BLE001 - recorded, and the run goes on
-        message = f"{type(e).__name__}: {e}" if str(e) else type(e).__name__
-        return {"error": message, "traceback": traceback.format_exc()}
+        return {"error": error_message(e), "traceback": traceback.format_exc()}
+
+
+def error_message(e: BaseException) -> str:
+    """An error row's message: "Type: message", or the type alone when the message is empty."""
+    return f"{type(e).__name__}: {e}" if str(e) else type(e).__name__
 
 
 class Progress:
@@ -128,7 +132,7 @@ def run_all(
 ) -> Progress:
     """Run `todo` = [(key, spec)] and record each result in `db` as it finishes.
 
-    `total` is the number of episodes in `todo` (default: `len(todo)`), for the progress line;
+    `total` is the number of episodes in `todo` (default: counted), for the progress line;
     `timeout` the seconds after which a running episode is killed and recorded as a timeout;
     `plugins` the controller and predictor names of `todo` (`plugin_names`; Ray's workers get
     their directories), default: read from `todo`.
@@ -141,7 +145,10 @@ def run_all(
         raise ValueError(f"--workers must be >= 1, got {workers}")
     if timeout is not None and not timeout > 0:
         raise ValueError(f"--episode-timeout must be > 0 seconds, got {timeout}")
-    bar = Progress(len(todo) if total is None else total, label, enabled=progress)
+    if total is None:
+        todo = list(todo)  # an iterator has no len
+        total = len(todo)
+    bar = Progress(total, label, enabled=progress)
     if executor == "ray":
         if plugins is None:
             todo = list(todo)
@@ -196,7 +203,10 @@ class _Worker:
         )
         try:
             self.proc = subprocess.Popen(
-                [sys.executable, "-c", code], pass_fds=(inbox, outbox), start_new_session=True
+                [sys.executable, "-c", code],
+                pass_fds=(inbox, outbox),
+                start_new_session=True,
+                env={**os.environ, **_SINGLE_THREAD},  # no BLAS oversubscription
             )
         finally:
             os.close(inbox)
@@ -206,8 +216,14 @@ class _Worker:
         self.job = None
 
     def give(self, job) -> None:
+        """Hand the worker an episode; its clock (--episode-timeout) starts now, a fresh
+        worker's start-up included. A worker that died meanwhile closes its outbox: the loop
+        records the episode as its death."""
         self.job = (*job, time.monotonic())
-        self.inbox.send(job[1])
+        try:
+            self.inbox.send(job[1])
+        except OSError:
+            pass
 
     def stop(self) -> None:
         """Ends the process: at once if it holds an episode, else after it read the stop."""
@@ -225,7 +241,6 @@ class _Worker:
 
 def _local(todo, workers: int, timeout: float | None) -> Iterator:
     """(key, spec, result) of each episode of `todo` as it finishes, on `workers` processes."""
-    os.environ.update(_SINGLE_THREAD)  # inherited by the workers: no BLAS oversubscription
     jobs = iter(todo)
     pool: list[_Worker] = []
     try:

@@ -29,6 +29,9 @@ from dcmppi.bench.runner import Episode, EpisodeSpec, decode_trace, run_episode
 GALLERY_SIZE = (480, 270)  # [px] width, height of a gallery GIF
 
 
+NOT_IN_PROCESS = ("timeout:", "worker died")  # error rows of a worker process's end
+
+
 @dataclasses.dataclass(frozen=True)
 class Replay:
     """What a replay found.
@@ -105,7 +108,17 @@ def gallery(db_paths, out_dir, n: int, camera: str = "scene") -> dict:
 
 
 def _replay(record, config, video, camera, progress, size) -> Replay:
+    from dcmppi.bench.execution import error_message
+
     spec = _spec(record, config)
+    error = record.get("error") or ""
+    if record["status"] == "error" and error.startswith(NOT_IN_PROCESS):
+        head = f"{record['task']} / {record['label']} / env {record['env_index']}"
+        message = (
+            f"{head}: recorded as {error!r}, which only a worker process shows (its death or "
+            "its time limit); a replay runs in this process, so it does not rerun it"
+        )
+        return Replay(False, message, record, {}, None)
     try:
         if video is None:
             result = run_episode(spec)
@@ -117,8 +130,10 @@ def _replay(record, config, video, camera, progress, size) -> Replay:
                 Episode(spec), video, camera, width=width, height=height, progress=progress,
                 legend=size is None,
             )  # fmt: skip
-    except Exception as e:  # noqa: BLE001 - an error row is reproduced by the same error
-        result = {"error": f"{type(e).__name__}: {e}"}
+    except KeyboardInterrupt:
+        raise
+    except BaseException as e:  # noqa: BLE001 - an error row is reproduced by the same error
+        result = {"error": error_message(e)}
     return compare(record, result)
 
 
@@ -231,22 +246,22 @@ def _find(paths, label, env_index, noise) -> tuple[dict, dict]:
 
 
 def _all_rows(paths) -> tuple[list[dict], dict]:
-    """The rows (their traces left out) of every database, the first of each key, ordered by
-    key, and the database of each (by id(row))."""
-    rows, source, seen = [], {}, set()
+    """The rows (their traces left out) of every database, one per key as the report merges
+    them (the first finished row, else the first), ordered by key, and the database of each
+    (by id(row))."""
+    chosen, source = {}, {}
     for path in paths:
         db = ResultsDB(path)
         try:
             for row in db.rows():
                 key = (row["noise"], row["label"], row["env_index"])
-                if key not in seen:
-                    seen.add(key)
-                    rows.append(row)
+                held = chosen.get(key)
+                if held is None or held["status"] != "ok" and row["status"] == "ok":
+                    chosen[key] = row
                     source[id(row)] = path
         finally:
             db.close()
-    rows.sort(key=lambda r: (r["noise"], r["label"], r["env_index"]))
-    return rows, source
+    return [chosen[key] for key in sorted(chosen)], source
 
 
 def _spec(record: dict, config: dict) -> EpisodeSpec:

@@ -372,9 +372,10 @@ def provenance(data: Loaded) -> tuple[str, list[str], str]:
         )
         for run in data.runs
     }  # fmt: skip
-    conditions = []  # distinct provenances, in the order of the runs
+    conditions = []  # distinct provenances of the runs that own rows, in the order of the runs
     state = {}  # (source, run_id) -> index into conditions
-    for run in recorded:
+    owning = {(r["source"], r["run_id"]) for r in data.rows}
+    for run in (run for run in recorded if (run["source"], run["run_id"]) in owning):
         prov = run["provenance"]
         found = next((j for j, c in enumerate(conditions) if not differences(c, prov)), None)
         if found is None:

@@ -431,7 +431,8 @@ class ResultsDB:
             if self.provenance is not None:
                 runs = db.execute(
                     "SELECT run_id, provenance FROM runs WHERE provenance IS NOT NULL AND "
-                    "EXISTS (SELECT 1 FROM episodes e WHERE e.run_id = runs.run_id) "
+                    "EXISTS (SELECT 1 FROM episodes e WHERE e.run_id = runs.run_id "
+                    "AND e.status = 'ok') "
                     "ORDER BY run_id DESC"
                 )
                 for run_id, text in runs.fetchall():

@@ -125,6 +125,22 @@ def test_allow_mixed_extends_and_the_report_shows_the_versions_per_row(tmp_path)
     assert "code aaaaaaaa" in line and "code bbbbbbbb" in line
 
 
+def test_rows_that_only_errored_do_not_bind_the_fixed_rerun(tmp_path):
+    """The bench says "fix the cause and rerun": a run whose rows are all errors (replaced by the
+    rerun's) does not refuse the fixed code, and the report is not called mixed."""
+    from dcmppi.bench.report import write_report
+
+    path = tmp_path / "r.db"
+    exp = load_experiment("static").select(1, ("mppi",), ("none",))
+    _run(path, PROV, [(0, {"error": "ZeroDivisionError: division by zero"})], exp=exp)
+    fixed = _with(code_sha256="b" * 64)
+    _run(path, fixed, [(0, RESULT)], exp=exp)  # no ProvenanceMismatch
+    text = write_report(path, tmp_path / "out", plots=False)
+    assert "Mixed" not in text
+    with pytest.raises(ProvenanceMismatch):  # while its ok rows remain, other code is refused
+        _run(path, PROV, [(1, RESULT)], exp=load_experiment("static").select(2, ("mppi",)))
+
+
 def test_a_run_that_recorded_nothing_leaves_no_run(tmp_path):
     path = tmp_path / "r.db"
     _run(path, PROV)

@@ -112,6 +112,15 @@ def test_a_changed_record_is_not_reproduced_and_the_departure_is_named(tmp_path)
     assert "final pose" in r.message and "(recorded" in r.message.split("final pose")[1]
 
 
+def test_a_worker_processs_end_is_named_not_rerun(tmp_path):
+    db = tmp_path / "r.db"
+    record(db, "blocked")
+    _tamper(db, "UPDATE episodes SET status = 'error', error = 'worker died (signal 9)'")
+    r = rp.replay(db, "mppi", 0)
+    assert not r.reproduced and r.result == {}
+    assert "recorded as 'worker died (signal 9)', which only a worker process shows" in r.message
+
+
 def test_replay_names_what_the_databases_hold(tmp_path):
     db = tmp_path / "r.db"
     record(db, "blocked", rows=("mppi", "dc"))

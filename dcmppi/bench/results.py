@@ -429,14 +429,19 @@ class ResultsDB:
             found = db.execute("SELECT value FROM meta WHERE key = 'writer'").fetchone()
             other = json.loads(found[0]) if found else None
             if self.provenance is not None:
+                # the runs that own finished rows, and those still being written by a live
+                # process (a shard started beside this one has no rows yet)
                 runs = db.execute(
-                    "SELECT run_id, provenance FROM runs WHERE provenance IS NOT NULL AND "
-                    "EXISTS (SELECT 1 FROM episodes e WHERE e.run_id = runs.run_id "
-                    "AND e.status = 'ok') "
-                    "ORDER BY run_id DESC"
+                    "SELECT run_id, provenance, ended, EXISTS (SELECT 1 FROM episodes e WHERE "
+                    "e.run_id = runs.run_id AND e.status = 'ok') FROM runs WHERE provenance IS "
+                    "NOT NULL ORDER BY run_id DESC"
                 )
-                for run_id, text in runs.fetchall():
-                    diffs = differences(json.loads(text), self.provenance)
+                for run_id, text, ended, owns in runs.fetchall():
+                    stored = json.loads(text)
+                    writer = stored.get("writer")
+                    if not owns and not (ended is None and writer and writer_alive(writer)):
+                        continue
+                    diffs = differences(stored, self.provenance)
                     if diffs and not self.allow_mixed:
                         more = f"; and {len(diffs) - 1} more" if len(diffs) > 1 else ""
                         raise ProvenanceMismatch(
@@ -446,7 +451,7 @@ class ResultsDB:
                         )
                 cur = db.execute(
                     "INSERT INTO runs (provenance, started) VALUES (?, ?)",
-                    (_canonical(self.provenance), me["started"]),
+                    (_canonical({**self.provenance, "writer": me}), me["started"]),
                 )
                 self.run_id = cur.lastrowid
             for key, value in (("experiment", experiment), ("writer", me)):

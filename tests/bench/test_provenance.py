@@ -141,6 +141,20 @@ def test_rows_that_only_errored_do_not_bind_the_fixed_rerun(tmp_path):
         _run(path, PROV, [(1, RESULT)], exp=load_experiment("static").select(2, ("mppi",)))
 
 
+def test_a_shard_running_beside_under_other_code_is_refused_before_either_records(tmp_path):
+    path = tmp_path / "r.db"
+    first = ResultsDB(path, CONFIG, provenance=PROV)
+    first.begin_run({"name": "t"})  # started, nothing recorded yet, this process alive
+    second = ResultsDB(path, CONFIG, provenance=_with(code_sha256="b" * 64))
+    with pytest.raises(ProvenanceMismatch, match="dcmppi's code"):
+        second.begin_run({"name": "t"})
+    first.end_run()  # it recorded nothing: its run is dropped, and binds no one
+    second.begin_run({"name": "t"})
+    second.end_run()
+    first.close()
+    second.close()
+
+
 def test_a_run_that_recorded_nothing_leaves_no_run(tmp_path):
     path = tmp_path / "r.db"
     _run(path, PROV)

@@ -418,10 +418,10 @@ def observed_velocity(velocity, moving):
     if velocity is None:
         return None
     velocity = np.asarray(velocity, dtype=float)
-    radius = np.zeros(0) if moving is None else np.asarray(moving, dtype=float)[:, 3]
-    if velocity.shape != (len(radius), 2):
+    rows = 0 if moving is None else len(moving)
+    if velocity.shape != (rows, 2):
         raise ValueError(
-            f"moving_velocity must have shape ({len(radius)}, 2), one row per row of moving; "
+            f"moving_velocity must have shape ({rows}, 2), one row per row of moving; "
             f"got {velocity.shape}"
         )
     infinite = np.isinf(velocity).any(axis=1)
@@ -430,4 +430,4 @@ def observed_velocity(velocity, moving):
             f"moving_velocity must be finite, or nan where not observed; infinite rows "
             f"{np.flatnonzero(infinite)}"
         )
-    return velocity[radius > 0]
+    return observed_rows(velocity, moving, "moving_velocity")

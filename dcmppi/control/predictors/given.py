@@ -9,11 +9,12 @@ with the sampled futures of "prior".
 
 import numpy as np
 
-from .base import Prediction, Predictor, register_predictor
+from .base import register_predictor
+from .prior import SampledFutures
 
 
 @register_predictor("given")
-class Given(Predictor):
+class Given(SampledFutures):
     """The caller's futures (L, F, N + 1, 2) of the L moving obstacles (module docstring)."""
 
     inputs = ("futures",)
@@ -22,24 +23,7 @@ class Given(Predictor):
         if len(moving) == 0:
             return self.none()
         futures = check_futures(futures, len(moving), self.N)
-        radius = moving[:, 3] + self.obstacle_margin
-        count = futures.shape[1]
-        return Prediction(
-            futures.reshape(-1, self.N + 1, 2),
-            np.repeat(radius + self.robot_radius, count),
-            self.beta / count,
-            futures,
-            collision_cost=self.beta,
-        )
-
-    def empty(self):
-        return Prediction(
-            np.zeros((0, self.N + 1, 2)),
-            np.zeros(0),
-            self.beta,
-            np.zeros((0, 1, self.N + 1, 2)),
-            collision_cost=self.beta,
-        )
+        return self.prediction(futures, moving[:, 3] + self.obstacle_margin)
 
 
 def check_futures(futures, L, N) -> np.ndarray:

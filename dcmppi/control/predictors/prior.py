@@ -81,12 +81,13 @@ class SampledFutures(Predictor):
         return (gap <= reach).any(axis=1)
 
     def prediction(self, futures, radius):
-        """The Prediction of futures (n, P, N + 1, 2) of n obstacles of radii (n,) (with the
-        margin): every future a track of weight beta / P."""
+        """The Prediction of futures (n, F, N + 1, 2) of n obstacles of radii (n,) (with the
+        margin): every future a track of weight beta / F (F = P for the sampled ones)."""
+        count = futures.shape[1]
         return Prediction(
             futures.reshape(-1, self.N + 1, 2),
-            np.repeat(radius + self.robot_radius, self.P),
-            self.beta / self.P,
+            np.repeat(radius + self.robot_radius, count),
+            self.beta / count,
             futures,
             collision_cost=self.beta,
         )

@@ -21,8 +21,8 @@ from .agents import make_agent
 from .agents.projection import NO_SUMS, project_columns, project_perturbed
 from .costs import RESOLUTION, OccupancyGrid, valid_cylinders
 from .diagnostics import Diagnostics
-from .normal import scaled_normal, standard_normal
 from .objective import Objective
+from .perturbations import draw_normals
 from .predictors import predictor_class
 from .predictors.base import INPUTS
 from .temperature import COLLISION_NATS, ESS_TARGET, choose_lambda
@@ -186,6 +186,9 @@ class Controller:
         if self.rng is None or seed is not None:
             s = self.seed
             self.rng = s if isinstance(s, np.random.Generator) else np.random.default_rng(s)
+            self._keys = self.rng.spawn(1)[0]  # its own stream: rng's draws stay the predictor's
+        self._key = int(self._keys.integers(2**63))  # this episode's perturbation stream
+        self._draws = 0
         self.U = None  # set from the agent's first guess at the first step
         self._last_lambda = None  # "auto": where the next step's search starts
         self.predictor.reset()
@@ -275,13 +278,19 @@ class Controller:
         shape = (self.N, self.nu, self.K)
         self._raw = None
         if self.perturbation == "time_varying":
-            return scaled_normal(self.rng, shape, self.sigma)
-        raw = standard_normal(self.rng, (self.nu, self.K)) * self.sigma[:, None]
+            return self._normals(shape, self.sigma)
+        raw = self._normals((1, self.nu, self.K), self.sigma)[0]
         if self.perturbation == "constant":
             self._raw = raw
             return np.broadcast_to(raw, shape)
         half = np.sqrt(0.5)  # each draw N(0, Sigma / 2): the sum has variance Sigma at every step
-        return scaled_normal(self.rng, shape, half * self.sigma, half * raw)
+        return self._normals(shape, half * self.sigma, half * raw)
+
+    def _normals(self, shape, scale, add=None):
+        """The next draw of this episode's perturbation stream (dcmppi.control.perturbations):
+        z * scale[:, None] (+ add) for standard normals z (R, nu, K)."""
+        self._draws += 1
+        return draw_normals(self._key, self._draws, shape, scale, add, self.threads)
 
     def controls(self, U0, eps, sums=False):
         """Bounded controls project(U0 + eps) (N, nu, K) and the perturbations that remain
@@ -318,27 +327,18 @@ class Controller:
         J, importance = np.empty(starts * k), np.empty(k)
         term = None if objective.tracks.empty else np.empty(starts * k)
 
-        def costs(j0, j1, sharp=False):
-            flag = agent.rollout_columns(out, u, self.dt, (j0, j1), sharp)
+        def part(j0, j1):
+            project_columns(agent, U0, eps, u, e, total, (j0, j1))
+            agent.rollout_columns(out, u, self.dt, (j0, j1))
             for s in range(starts):
                 c0, c1 = s * k + j0, s * k + j1
                 J[c0:c1], t = objective(states, True, (c0, c1))
                 if term is not None:
                     term[c0:c1] = t
-            return flag
-
-        def part(j0, j1):
-            project_columns(agent, U0, eps, u, e, total, (j0, j1))
-            flag = costs(j0, j1)
             importance[j0:j1] = self.importance(U0, e[:, :, j0:j1])
-            return flag
 
         with self.timer("threads"):
-            flags = run(part, ranges)
-            if any(flags):  # parts that must agree (Agent.rollout_columns) roll out again
-                for (j0, j1), flag in zip(ranges, flags, strict=True):
-                    if not flag:
-                        costs(j0, j1, sharp=True)
+            run(part, ranges)
         return e, states, J, importance, *([total] if sums else []), *([term] if moving else [])
 
     def evaluate(self, x0, u, starts=1, moving=False):
@@ -377,11 +377,12 @@ class Controller:
     def finish(self, plan):
         """Apply the plan's first controls and warm-start the next step by shifting it.
 
-        plan: (N, nu). Returns plan[0] (nu,).
+        plan: (N, nu). Returns plan[0] (nu,) in the agent's bounds (a weighted mean of bounded
+        controls may leave them by a rounding error).
         """
         self.U = np.concatenate([plan[1:], plan[-1:]])
         self.diagnostics.plan = plan
-        return plan[0].copy()
+        return self.agent.project(plan[:1], axis=1)[0]
 
 
 def temperature_param(value):

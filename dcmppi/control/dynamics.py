@@ -7,16 +7,14 @@ that period with the speed v and turn rate omega held constant (a circular arc):
     x += v dt sinc(a) cos(theta + a),   y += v dt sinc(a) sin(theta + a),   theta += 2 a
 
 with sinc(a) = sin(a) / a. Rollouts are time-major internally, (N + 1, 3, K): row i holds x, y and
-theta of all K rollouts at step i. The running sums over the horizon are two small numba loops
-(a numpy version needs a call per step, or per step and column set); the cosine and sine of the
-headings are numpy's, taken in float32 (docs/performance.md). The positions stay float64 and are
-accurate to about 1e-6 m over a 5 s horizon, far below the 0.1 m cost-map resolution.
+theta of all K rollouts at step i. The running sums over the horizon are one numba loop per
+step whose sines and cosines (dcmppi.control.libm) vectorise (docs/performance.md).
 """
 
 import numba
 import numpy as np
 
-from .threads import in_cols, n_cols
+from .libm import sincos
 
 _SINC_SERIES_MAX = 0.1  # |a| below which sinc(a) uses its series (error < 1e-13)
 
@@ -104,82 +102,57 @@ def arc_rollout(x0, u, dt, v=None, starts=1):
     return out.reshape(3, n + 1, starts * k)
 
 
-def arc_columns(out, u, dt, v, cols=None, sharp=False):
+def arc_columns(out, u, dt, v, cols=None):
     """arc_rollout of the samples cols = (j0, j1) (None: all) into their columns of out
-    (3, N + 1, S, K), whose start states out[:, 0] are set.
-
-    The chords come from sinc's series unless some arc of these columns is beyond it, or
-    sharp=True (another part's arc is: a batch split over threads keeps the whole batch's
-    choice). Returns whether some arc of these columns is beyond the series.
-    """
-    vdt = dt if v is None else v * dt
-    a, mid, step = _arcs(out, u, 0.5 * dt, vdt, cols)
-    beyond = step is None
-    if beyond or sharp:  # a sharp turn: sinc beyond its series
-        step = vdt * np.sinc(a / np.pi)
-        if v is None:
-            step *= u[:, 0] if cols is None else u[:, 0, cols[0] : cols[1]]
-    _positions(out, step, np.cos(mid), np.sin(mid), cols)
-    return beyond
+    (3, N + 1, S, K), whose start states out[:, 0] are set."""
+    j0, j1 = cols or (0, u.shape[2])
+    buffers = np.empty((4, j1 - j0))
+    _arcs(out, u, 0.5 * dt, dt if v is None else v * dt, j0, j1, buffers)
 
 
-@numba.njit(cache=True, nogil=True)
-def _arcs(out, u, half_dt, vdt, cols):
-    """The arcs of every period of the samples cols (threads.in_cols): wraps their start
-    headings out[2, 0] to [-pi, pi) and writes theta_{i+1} = theta_i + 2 a_i into out[2].
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _arcs(out, u, half_dt, vdt, j0, j1, buffers):
+    """The arcs of the samples j0:j1, one pass per step: wraps their start headings out[2, 0]
+    to [-pi, pi), then x_{i+1} = x_i + chord_i cos(theta_i + a_i), y likewise and theta_{i+1} =
+    theta_i + 2 a_i with a_i = omega_i dt / 2 and chord_i = v dt sinc(a_i) (sinc's series below
+    _SINC_SERIES_MAX, sin(a) / a above, per arc; per-period speeds: (dt sinc(a)) v). The sines
+    and cosines are dcmppi.control.libm's, so the loops vectorise.
     out: (3, n + 1, S, K); u: (n, 1, K) turn rates (one speed: vdt = v dt) or (n, 2, K)
-    speeds and turn rates (vdt = dt).
-    Returns a = omega dt / 2 (n, k), the mid-period headings float32(theta_i + a_i) (n, S, k),
-    and the chords v dt sinc(a) (n, k) (per-period speeds: (dt sinc(a)) v), or None when some
-    |a| is beyond sinc's series; k samples. One pass per step over the samples (no
-    temporaries)."""
-    n, starts, k = u.shape[0], out.shape[2], n_cols(u.shape[2], cols)
+    speeds and turn rates (vdt = dt); buffers: (4, >= j1 - j0) scratch."""
+    n, starts, k = u.shape[0], out.shape[2], j1 - j0
     turn = u.shape[1] - 1  # the turn rate's column; a speed's is 0 when there are two
     for s in range(starts):
-        first = in_cols(out[2, 0, s], cols)
+        first = out[2, 0, s, j0:j1]
         for j in range(k):
             first[j] = _wrap(first[j])
-    a = np.empty((n, k))
-    chord = np.empty((n, k))
-    mid = np.empty((n, starts, k), dtype=np.float32)
-    beyond = 0  # arcs too sharp for the series (a count, not a max: the loop vectorises)
+    a, chord, sin, cos = buffers[0, :k], buffers[1, :k], buffers[2, :k], buffers[3, :k]
     for i in range(n):
-        ai_row, c_row, omega = a[i], chord[i], in_cols(u[i, turn], cols)
+        omega = u[i, turn, j0:j1]
+        beyond = 0  # arcs too sharp for the series (a count, not a flag: the loop vectorises)
         for j in range(k):
-            ai = omega[j] * half_dt
-            ai_row[j] = ai
-            a2 = ai * ai
-            c_row[j] = vdt * (1.0 + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 - a2 / 5040.0)))
-            beyond += abs(ai) >= _SINC_SERIES_MAX
+            aj = omega[j] * half_dt
+            a[j] = aj
+            a2 = aj * aj
+            chord[j] = vdt * (1.0 + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 - a2 / 5040.0)))
+            beyond += abs(aj) >= _SINC_SERIES_MAX
+        if beyond:
+            for j in range(k):
+                if abs(a[j]) >= _SINC_SERIES_MAX:
+                    chord[j] = vdt * (sincos(a[j])[0] / a[j])
         if turn:
-            speed = in_cols(u[i, 0], cols)
+            speed = u[i, 0, j0:j1]
             for j in range(k):
-                c_row[j] *= speed[j]
+                chord[j] *= speed[j]
         for s in range(starts):
-            now, nxt = in_cols(out[2, i, s], cols), in_cols(out[2, i + 1, s], cols)
-            m = mid[i, s]
+            now, nxt = out[2, i, s, j0:j1], out[2, i + 1, s, j0:j1]
             for j in range(k):
-                m[j] = np.float32(now[j] + ai_row[j])
-                nxt[j] = now[j] + (ai_row[j] + ai_row[j])
-    if beyond:
-        return a, mid, None
-    return a, mid, chord
-
-
-@numba.njit(cache=True, nogil=True)
-def _positions(out, step, cos, sin, cols):
-    """x_{i+1} = x_i + step_i cos_i and y likewise into out[:2] (from out[:2, 0]), columns
-    cols (threads.in_cols).
-    out: (3, n + 1, S, K); step: (n, k) arc lengths' chords; cos, sin: (n, S, k) float32."""
-    n, starts, k = step.shape[0], out.shape[2], step.shape[1]
-    for i in range(n):
-        for s in range(starts):
-            x0, x1 = in_cols(out[0, i, s], cols), in_cols(out[0, i + 1, s], cols)
-            y0, y1 = in_cols(out[1, i, s], cols), in_cols(out[1, i + 1, s], cols)
-            c, sn, d = cos[i, s], sin[i, s], step[i]
+                sin[j], cos[j] = sincos(now[j] + a[j])
+                nxt[j] = now[j] + (a[j] + a[j])
+            x0, x1 = out[0, i, s, j0:j1], out[0, i + 1, s, j0:j1]
+            y0, y1 = out[1, i, s, j0:j1], out[1, i + 1, s, j0:j1]
             for j in range(k):
-                x1[j] = x0[j] + d[j] * np.float64(c[j])
-                y1[j] = y0[j] + d[j] * np.float64(sn[j])
+                x1[j] = x0[j] + chord[j] * cos[j]
+                y1[j] = y0[j] + chord[j] * sin[j]
 
 
 def rollout(state, U, v, dt):

@@ -3,9 +3,10 @@
 A part is a range j0:j1 of the samples. Its controls, rollouts, costs and importance terms
 depend on its samples alone, and the kernels do the same arithmetic for every sample, so the
 parts give the values of the whole batch, bit for bit: the part boundaries are multiples of
-ALIGN samples, where BLAS's products (the importance term) and numpy's SIMD loops (the arcs'
-cosines) treat a sample as they do in the whole batch. The cross-sample work (the draws, the
-weights, the updates, DBSCAN) stays on the calling thread, in its order. The compiled kernels
+ALIGN samples, where BLAS's products (the importance term) treat a sample as they do in the
+whole batch, and where the perturbation draws' streams begin (dcmppi.control.perturbations: the
+draws are split the same way). The cross-sample work (the weights, the updates, DBSCAN) stays
+on the calling thread, in its order. The compiled kernels
 release the GIL (numba's nogil), as numpy's and BLAS's loops do.
 """
 

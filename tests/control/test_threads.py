@@ -7,7 +7,7 @@ import pytest
 from threadpoolctl import threadpool_limits
 
 import dcmppi
-from dcmppi.control.dynamics import arc_columns
+from dcmppi.control.dynamics import arc_columns, dubins_step
 from dcmppi.control.threads import ALIGN, parts
 
 GOAL = np.array([12.0, 1.0])
@@ -70,7 +70,8 @@ def test_three_threads_and_the_auto_temperature():
 
 
 def test_sharp_arcs_in_one_part_only():
-    """An arc beyond sinc's series in one part: every part takes the whole batch's sinc."""
+    """An arc beyond sinc's series in one part: each arc takes its own sinc, so a part rolled
+    out alone gives the whole batch's columns, and the sharp arc is exact."""
     ctrl = dcmppi.make_controller("mppi", r_min=0.1, K=300, N=20, seed=0, threads=2)
     state = np.zeros(3)
     ctrl.act(state, GOAL)  # sets the warm start and the step's objective
@@ -83,11 +84,16 @@ def test_sharp_arcs_in_one_part_only():
         whole = ctrl.perturbed_rollouts(state, eps)
     for a, b in zip(split, whole, strict=True):
         assert np.array_equal(a, b)
-    # The first part alone, with the series, would differ in the last bits.
     u = np.clip(ctrl.U[:, :, None] + eps, -10.0, 10.0)
     out = np.zeros((3, ctrl.N + 1, 1, ctrl.K))
-    assert not arc_columns(out, u, ctrl.dt, 1.0, (0, 192))
-    assert not np.array_equal(out[:, :, 0, :192], whole[1][:, :, :192])
+    arc_columns(out, u, ctrl.dt, 1.0, (0, 192))
+    assert np.array_equal(out[:, :, 0, :192], whole[1][:, :, :192])
+    omega = u[:, 0, 250]
+    x = np.zeros(3)
+    for w in omega:  # libm's sines: the exact arc of dubins_step
+        x = dubins_step(x, w, 1.0, ctrl.dt)
+    assert abs(omega[0] * ctrl.dt / 2) > 0.1
+    np.testing.assert_allclose(whole[1][:, -1, 250], x, rtol=0, atol=1e-12)
 
 
 def test_parts_cover_the_samples_at_aligned_boundaries():

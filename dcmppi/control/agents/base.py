@@ -198,21 +198,17 @@ class Agent:
         """
         raise NotImplementedError
 
-    def rollout_columns(self, out, u, dt, cols=None, sharp=False):
+    def rollout_columns(self, out, u, dt, cols=None):
         """The rollouts of samples cols = (j0, j1) (a thread's share of a batch; None: all) into
         their columns of out (3, N + 1, S, K), whose start states out[:, 0] are set; u: (N, nu,
-        K).
-
-        Returns a flag that the split batch must agree on (the arcs' sinc: whether some arc is
-        beyond its series); when the parts' flags differ, the parts without it are rolled out
-        again with sharp=True. Default: `rollout` on a copy of the columns (flag False).
+        K). A sample's rollout depends on its own controls alone. Default: `rollout` on a copy
+        of the columns.
         """
         starts = out.shape[2]
         j0, j1 = cols or (0, u.shape[2])
         x0 = out[:, 0, 0, j0:j1] if starts == 1 else out[:, 0, :, j0]
         part = self.rollout(x0, np.ascontiguousarray(u[:, :, j0:j1]), dt, starts)
         out[:, :, :, j0:j1] = part.reshape(3, -1, starts, j1 - j0)
-        return False
 
     def step(self, state, u, dt):
         """One exact control period: state (..., 3), u (..., nu) -> (..., 3), theta unwrapped."""

@@ -34,8 +34,8 @@ class Dubins(Agent):
     def rollout(self, x0, u, dt, starts=1):
         return arc_rollout(x0, u, dt, self.v, starts)
 
-    def rollout_columns(self, out, u, dt, cols=None, sharp=False):
-        return arc_columns(out, u, dt, self.v, cols, sharp)
+    def rollout_columns(self, out, u, dt, cols=None):
+        arc_columns(out, u, dt, self.v, cols)
 
     def step(self, state, u, dt):
         return dubins_step(state, np.asarray(u, dtype=float)[..., 0], self.v, dt)

@@ -50,9 +50,8 @@ class Holonomic(Agent):
         _integrate(out, u, dt, None)
         return out.reshape(3, n + 1, starts * k)
 
-    def rollout_columns(self, out, u, dt, cols=None, sharp=False):
+    def rollout_columns(self, out, u, dt, cols=None):
         _integrate(out, u, dt, cols)
-        return False
 
     def step(self, state, u, dt):
         return np.asarray(state, dtype=float) + dt * np.asarray(u, dtype=float)

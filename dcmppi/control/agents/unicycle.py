@@ -41,8 +41,8 @@ class Unicycle(Agent):
     def rollout(self, x0, u, dt, starts=1):
         return arc_rollout(x0, u, dt, None, starts)  # u: (N, 2, K) speeds, turn rates
 
-    def rollout_columns(self, out, u, dt, cols=None, sharp=False):
-        return arc_columns(out, u, dt, None, cols, sharp)
+    def rollout_columns(self, out, u, dt, cols=None):
+        arc_columns(out, u, dt, None, cols)
 
     def step(self, state, u, dt):
         u = np.asarray(u, dtype=float)

@@ -1,0 +1,87 @@
+"""sin, cos and log for compiled loops that vectorise: fdlibm's kernels without branches.
+
+numba calls libm's sin, cos and log one element at a time, so a loop that takes them does not
+vectorise. These are fdlibm's polynomials (k_sin.c, k_cos.c, e_log.c; errors below 1 ulp of
+their reduced arguments) behind branch-free argument reductions: within 2 ulp of libm for
+|x| < 1e5 (sincos) and on (0, 1] (log_unit), the same values on every machine (no fused
+multiply-add: numba compiles without fast-math). The rollouts (dcmppi.control.dynamics) and the
+perturbation draws (dcmppi.control.perturbations) use them.
+"""
+
+import numba
+import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
+
+# k_sin.c, k_cos.c
+_S1, _S2 = -1.66666666666666324348e-01, 8.33333333332248946124e-03
+_S3, _S4 = -1.98412698298579493134e-04, 2.75573137070700676789e-06
+_S5, _S6 = -2.50507602534068634195e-08, 1.58969099521155010221e-10
+_C1, _C2 = 4.16666666666666019037e-02, -1.38888888888741095749e-03
+_C3, _C4 = 2.48015872894767294178e-05, -2.75573143513906633035e-07
+_C5, _C6 = 2.08757232129817482790e-09, -1.13596475577881948265e-11
+_TWO_OVER_PI = 6.36619772367581382433e-01
+_PIO2_1, _PIO2_1T = 1.57079632673412561417e00, 6.07710050650619224932e-11  # pi / 2, two parts
+_ROUND = 6755399441055744.0  # 1.5 2^52: (y + _ROUND) - _ROUND rounds y to an integer
+# e_log.c
+_LG1, _LG2 = 6.666666666666735130e-01, 3.999999999940941908e-01
+_LG3, _LG4 = 2.857142874366239149e-01, 2.222219843214978396e-01
+_LG5, _LG6, _LG7 = 1.818357216161805012e-01, 1.531383769920937332e-01, 1.479819860511658591e-01
+_LN2_HI, _LN2_LO = 6.93147180369123816490e-01, 1.90821492927058770002e-10
+_SQRT2 = 1.4142135623730951
+
+
+@numba.njit(inline="always")
+def sincos(x):
+    """(sin x, cos x) for |x| < 1e5: x = k pi / 2 + r with |r| <= pi / 4, the kernels on r,
+    and the quadrant k mod 4 picked by arithmetic (no branch)."""
+    k = (x * _TWO_OVER_PI + _ROUND) - _ROUND
+    r = (x - k * _PIO2_1) - k * _PIO2_1T
+    z = r * r
+    s = r + r * z * (_S1 + z * (_S2 + z * (_S3 + z * (_S4 + z * (_S5 + z * _S6)))))
+    c = 1.0 - 0.5 * z + z * z * (_C1 + z * (_C2 + z * (_C3 + z * (_C4 + z * (_C5 + z * _C6)))))
+    q = np.int64(k)
+    odd = np.float64(q & 1)
+    sin_sign = np.float64(1 - 2 * ((q >> 1) & 1))
+    cos_sign = np.float64(1 - 2 * (((q + 1) >> 1) & 1))
+    return sin_sign * (s * (1.0 - odd) + c * odd), cos_sign * (c * (1.0 - odd) + s * odd)
+
+
+@intrinsic
+def _bits(typingctx, x):
+    """The IEEE bits of a float64, as an int64."""
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.IntType(64))
+
+    return types.int64(types.float64), codegen
+
+
+@intrinsic
+def _from_bits(typingctx, bits):
+    """The float64 of IEEE bits given as an int64."""
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.DoubleType())
+
+    return types.float64(types.int64), codegen
+
+
+@numba.njit(inline="always")
+def log_unit(u):
+    """ln u for normal u in (0, 1]: u = 2^e m with m in [sqrt(2) / 2, sqrt(2)), then e_log.c's
+    series in s = (m - 1) / (m + 1)."""
+    b = _bits(u)
+    m = _from_bits((b & 0x000FFFFFFFFFFFFF) | 0x3FF0000000000000)  # in [1, 2)
+    big = np.float64(m > _SQRT2)
+    m = m * (1.0 - 0.5 * big)
+    k = np.float64((b >> 52) - 1023) + big
+    f = m - 1.0
+    s = f / (2.0 + f)
+    z = s * s
+    w = z * z
+    t1 = w * (_LG2 + w * (_LG4 + w * _LG6))
+    t2 = z * (_LG1 + w * (_LG3 + w * (_LG5 + w * _LG7)))
+    hfsq = 0.5 * f * f
+    return k * _LN2_HI - ((hfsq - (s * (hfsq + (t2 + t1)) + k * _LN2_LO)) - f)

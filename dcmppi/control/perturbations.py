@@ -1,0 +1,100 @@
+"""The controllers' perturbation draws: standard normals from counter-based streams.
+
+Every block of BLOCK samples has a stream of its own, keyed by the controller's key (drawn from
+its Generator at each reset), the step's draw number and the block's index, so that:
+- the blocks are independent: threads may draw them in any order or split and get the same
+  values (a step's draws run on `threads` threads like its rollouts);
+- a draw is a pure function of its position: the n-th 64-bit word of a block is
+  mix64(base + n GAMMA) (SplitMix64's output mix of a Weyl sequence; Steele, Lea and Flood
+  2014), with no state carried from one word to the next, so the loops vectorise;
+- each two words give two normals by Box and Muller's transform, sqrt(-2 ln u1) (cos, sin)(2 pi
+  u2), with u1 in (0, 1] and u2 in [0, 1) of 53 bits and the branch-free libm of
+  dcmppi.control.libm: no rejection, no table.
+Integer arithmetic and rounded float operations only: the same values on every machine.
+"""
+
+import numba
+import numpy as np
+
+from .libm import log_unit, sincos
+from .threads import ALIGN, parts, run
+
+BLOCK = ALIGN  # samples per stream: a part of a step split over threads is whole blocks
+
+_GAMMA = np.uint64(0x9E3779B97F4A7C15)  # SplitMix64's Weyl increment (2^64 / golden ratio)
+_M1, _M2 = np.uint64(0xBF58476D1CE4E5B9), np.uint64(0x94D049BB133111EB)
+_U1, _U11, _U27, _U30, _U31 = (np.uint64(b) for b in (1, 11, 27, 30, 31))
+_ULP = 1.0 / 9007199254740992.0  # 2^-53
+_TWO_PI = 6.283185307179586
+
+
+@numba.njit(inline="always")
+def _mix(z):
+    """SplitMix64's output function: a bijection of uint64 that scrambles every bit."""
+    z = (z ^ (z >> _U30)) * _M1
+    z = (z ^ (z >> _U27)) * _M2
+    return z ^ (z >> _U31)
+
+
+@numba.njit(inline="always")
+def _pair(base, n, s):
+    """Two normals times s from words n and n + 1 of the stream base (Box-Muller)."""
+    u1 = np.float64(np.int64(_mix(base + n * _GAMMA) >> _U11) + 1) * _ULP  # (0, 1]
+    u2 = np.float64(np.int64(_mix(base + (n + _U1) * _GAMMA) >> _U11)) * _ULP  # [0, 1)
+    radius = np.sqrt(-2.0 * log_unit(u1)) * s
+    sn, cs = sincos(_TWO_PI * u2)
+    return radius * cs, radius * sn
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _draw(key, draw, out, scale, add, j0, j1):
+    """out[:, :, j0:j1] = z * scale[c] (+ add[c, j] when add is (nu, K)) for standard normals z
+    of the blocks j0 // BLOCK .. of draw `draw` under `key`. out: (R, nu, K)."""
+    rows, nu = out.shape[0], out.shape[1]
+    step = _mix(key ^ _mix(draw))
+    for b0 in range(j0, j1, BLOCK):
+        k = min(b0 + BLOCK, j1) - b0
+        h = BLOCK // 2 if k == BLOCK else (k + 1) // 2  # pairs: samples j and h + j share one
+        base = _mix(step + np.uint64(b0 // BLOCK) * _GAMMA)
+        for i in range(rows):
+            for c in range(nu):
+                o, s = out[i, c, b0 : b0 + k], scale[c]
+                first = np.uint64((i * nu + c) * BLOCK + 1)
+                if k == BLOCK:  # a constant offset: the loop vectorises
+                    for j in range(BLOCK // 2):
+                        z = _pair(base, first + np.uint64(2 * j), s)
+                        o[j], o[BLOCK // 2 + j] = z
+                else:
+                    for j in range(h):
+                        z = _pair(base, first + np.uint64(2 * j), s)
+                        o[j] = z[0]
+                        if h + j < k:
+                            o[h + j] = z[1]
+                if add.shape[0]:
+                    a = add[c, b0 : b0 + k]
+                    for j in range(k):
+                        o[j] += a[j]
+
+
+_NO_ADD = np.zeros((0, 0))
+
+
+def draw_normals(key, draw, shape, scale, add=None, threads=1):
+    """z * scale[:, None] (+ add) for standard normals z of shape (R, nu, K), the draw number
+    `draw` of the stream `key`; the same values for every `threads`.
+
+    Args:
+      key, draw: ints in [0, 2^64). shape: (R, nu, K). scale: (nu,). add: (nu, K) or None.
+    Returns:
+      (R, nu, K) float64.
+    """
+    out = np.empty(shape)
+    scale = np.asarray(scale, dtype=float)
+    add = _NO_ADD if add is None else np.ascontiguousarray(add, dtype=float)
+    key, draw = np.uint64(key), np.uint64(draw)
+
+    def part(j0, j1):
+        _draw(key, draw, out, scale, add, j0, j1)
+
+    run(part, parts(shape[2], threads))
+    return out

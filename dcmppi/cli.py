@@ -1,5 +1,5 @@
 """The `dcmppi` command line: tasks, controllers, run, compare, figure, bench, report, replay,
-timing.
+outcomes, reach, timing.
 
 Controllers are named as `dcmppi controllers` lists them, or `package.module:ClassName`,
 imported like `python -m` would: from the current directory first, then the installed packages.
@@ -361,6 +361,17 @@ def cmd_replay(args) -> int:
     return 0 if found.reproduced else 1
 
 
+def cmd_outcomes(args) -> int:
+    from dcmppi.bench.outcomes import compare, table
+
+    comparisons = compare(args.old, args.new)
+    print(table(comparisons))
+    failing = [f"{c.label} ({c.noise})" for c in comparisons if not c.holds]
+    if failing:
+        print(f"\nthe outcomes differ beyond chance: {', '.join(failing)}", file=sys.stderr)
+    return 1 if failing else 0
+
+
 def cmd_reach(args) -> int:
     from dcmppi.bench.experiments import load_experiment
     from dcmppi.bench.reachability import summary, survey
@@ -572,6 +583,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--env", type=int, required=True, help="the environment index")
     p.add_argument("--noise", help="noise profile (default: the only one the row has there)")
     p.add_argument("--video", metavar="PATH", help="also render the rerun to PATH (.mp4, .gif)")
+
+    p = command(
+        "outcomes",
+        "the same outcomes within chance? old and new code on paired episodes, per row: "
+        "McNemar p > 0.05 and each collision rate in the other's 95 % interval (exit 1 if not)",
+        cmd_outcomes,
+    )
+    p.add_argument(
+        "--old", action="append", required=True, help="the old code's database (repeatable)"
+    )
+    p.add_argument(
+        "--new", action="append", required=True, help="the new code's database (repeatable)"
+    )
 
     p = command(
         "reach",

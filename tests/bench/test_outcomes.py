@@ -1,0 +1,53 @@
+"""`dcmppi outcomes`: old against new code on paired episodes (synthetic rows)."""
+
+import pytest
+
+from dcmppi.bench.experiments import load_experiment
+from dcmppi.bench.outcomes import compare, table
+from dcmppi.bench.results import ResultsDB
+from dcmppi.bench.runner import EpisodeSpec
+from dcmppi.cli import main
+
+
+def _db(path, collided, seed=0, experiment="static", failed=()):
+    """A database of row mppi (noise none): environment i collided when i is in `collided`,
+    timed out when in `failed`."""
+    exp = load_experiment(experiment).select(len(collided) + 60, ("mppi",), ("none",))
+    db = ResultsDB(path, exp.config())
+    db.begin_run(exp.to_dict())
+    for i in range(len(collided) + 60):
+        hit = collided[i] if i < len(collided) else False
+        outcome = "collision" if hit else "time_limit" if i in failed else "goal"
+        result = {"outcome": outcome, "collision": hit, "failure": outcome != "goal", "steps": 9}
+        db.record(("none", "mppi", i), EpisodeSpec(exp.task, "mppi", "none", seed + i), result)
+    db.end_run()
+    db.close()
+    return path
+
+
+def test_same_outcomes_within_chance_hold(tmp_path):
+    old = _db(tmp_path / "old.db", [True] * 10 + [False] * 30)
+    new = _db(tmp_path / "new.db", [True] * 8 + [False] * 30 + [True, True], failed=(50,))
+    (c,) = compare(old, new)
+    assert (c.pairs, c.old, c.new, c.only_old, c.only_new) == (100, 10, 10, 2, 2)
+    assert c.p == 1.0 and c.inside and c.holds
+    assert (c.old_failures, c.new_failures) == (10, 11)
+    assert "| none | mppi | 100 | 10 | 10 | 2 / 2 | 1.00 | yes | 10 | 11 | holds |" in table([c])
+    assert main(["outcomes", "--old", str(old), "--new", str(new)]) == 0
+
+
+def test_more_collisions_fail_the_rule(tmp_path, capsys):
+    old = _db(tmp_path / "old.db", [True] * 5 + [False] * 35)
+    new = _db(tmp_path / "new.db", [True] * 20 + [False] * 20)
+    (c,) = compare(old, new)
+    assert (c.only_old, c.only_new) == (0, 15) and c.p < 0.001 and not c.inside and not c.holds
+    assert main(["outcomes", "--old", str(old), "--new", str(new)]) == 1
+    assert "differ beyond chance: mppi (none)" in capsys.readouterr().err
+
+
+def test_other_seeds_or_experiments_are_refused(tmp_path):
+    old = _db(tmp_path / "old.db", [False] * 3)
+    with pytest.raises(ValueError, match="has seed 0 in the old databases and 7 in the new"):
+        compare(old, _db(tmp_path / "seeds.db", [False] * 3, seed=7))
+    with pytest.raises(ValueError, match="experiment 'static' and the new 'dynamic'"):
+        compare(old, _db(tmp_path / "dyn.db", [False] * 3, experiment="dynamic"))

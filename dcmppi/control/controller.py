@@ -18,7 +18,7 @@ import numpy as np
 
 from . import defaults
 from .agents import make_agent
-from .agents.projection import NO_SUMS, project_columns, project_perturbed
+from .agents.projection import NO_SUMS, bound, project_columns, project_perturbed
 from .costs import RESOLUTION, OccupancyGrid, valid_cylinders
 from .diagnostics import Diagnostics
 from .objective import Objective
@@ -382,7 +382,7 @@ class Controller:
         """
         self.U = np.concatenate([plan[1:], plan[-1:]])
         self.diagnostics.plan = plan
-        return self.agent.project(plan[:1], axis=1)[0]
+        return bound(self.agent, plan[0])
 
 
 def temperature_param(value):

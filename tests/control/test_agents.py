@@ -7,6 +7,7 @@ import pytest
 
 import dcmppi
 from dcmppi.control.agents import Agent, agent_names, make_agent, register_agent
+from dcmppi.control.agents.projection import bound
 
 AGENTS = ["dubins", "unicycle", "holonomic"]
 DT = 0.1
@@ -202,3 +203,13 @@ def test_a_registered_agent_plans_with_every_controller():
         from dcmppi.control.agents import base
 
         base._AGENTS.pop("point")
+
+
+@pytest.mark.parametrize("agent", ["dubins", "unicycle", "holonomic"])
+def test_bound_gives_project_s_values_for_one_control_vector(agent):
+    a = make_agent(agent)
+    rng = np.random.default_rng(4)
+    for scale in (0.1, 1.0, 5.0):  # inside, on, and far beyond the box and the disc
+        for u in rng.normal(0.0, scale, (200, a.nu)):
+            want = a.project(u[None], axis=1)[0]
+            assert np.array_equal(bound(a, u), want)

@@ -107,6 +107,28 @@ def _clip_box_disc(U0, eps, lower, upper, p, q, limit, sums, u, e, cols):
                     total[j] += out_e[j]
 
 
+def bound(agent, u):
+    """`agent.project` of one control vector u (nu,), its values, in one compiled call."""
+    if agent.norm_axes is None:
+        return _bound(u, agent.lower, agent.upper, 0, 0, np.inf)
+    if len(agent.norm_axes) == 2:
+        return _bound(u, agent.lower, agent.upper, *agent.norm_axes, agent.norm_limit)
+    return agent.project(u[None], axis=1)[0]
+
+
+@numba.njit(cache=True)
+def _bound(u, lower, upper, p, q, limit):
+    """min(max(u, lower), upper), then u_p and u_q scaled back onto the disc of radius limit
+    (np.inf: none)."""
+    out = np.minimum(np.maximum(u, lower), upper)
+    norm = np.sqrt(out[p] * out[p] + out[q] * out[q])
+    if norm > limit:
+        scale = limit / max(norm, 1e-300)
+        out[p] *= scale
+        out[q] *= scale
+    return out
+
+
 NO_SUMS = np.zeros((0, 0))  # the clip kernels' `sums` when none are asked for
 
 

@@ -125,6 +125,8 @@ class Physics(dm_mujoco.Physics):
         self._mocap = slice(mocap[0], mocap[-1] + 1) if num_moving else slice(0, 0)
         self._qpos, self._qvel, self._ctrl = d.qpos, d.qvel, d.ctrl
         self._qfrc_applied = d.qfrc_applied
+        self._opt = m.opt
+        self._geom_conaffinity, self._body_conaffinity = m.geom_conaffinity, m.body_conaffinity
         self._gain = m.actuator_gainprm[:, 0].copy()  # kv of the planar and turn actuators
         self._mocap_xy = d.mocap_pos[self._mocap, :2]
         self._mocap_quat = d.mocap_quat[self._mocap]
@@ -134,6 +136,9 @@ class Physics(dm_mujoco.Physics):
         self._moving_obs = np.zeros((num_moving, 4))
         self._solid = np.zeros((0, 3))
         self._solid_ids = self._static_ids[:0]
+        self._solid_z = np.zeros(0, dtype=np.complex128)
+        self._solid_r = np.zeros(0)
+        self._near = None  # conaffinity bytes of the solid and moving slots, last written
         self._speed_bound = 0.0
         self.collided = False
         self.first_contact = None
@@ -176,6 +181,7 @@ class Physics(dm_mujoco.Physics):
         self._solid = static[solid]
         self._solid_ids = ids[solid]
         self._solid_z = self._solid[:, 0] + 1j * self._solid[:, 1]
+        self._solid_r = self._solid[:, 2].copy()
 
         goal = m.geom("goal").id
         m.geom_pos[goal, :2] = world.goal
@@ -186,6 +192,7 @@ class Physics(dm_mujoco.Physics):
         _set_cylinders(m, self._moving_ids, moving[:, 3])
         m.geom_conaffinity[self._moving_ids] = 0
         m.body_conaffinity[self._moving_bodies] = 0
+        self._near = None
         self._walking = len(moving) > 0 and world.behavior != worlds.BEHAVIOR_CONSTANT
         obstacle_speed = 0.0
         if self._walking:
@@ -275,35 +282,49 @@ class Physics(dm_mujoco.Physics):
             )
         elif self._moving is not None:
             moving = self._moving.advance(nstep)
-        self._activate_near(nstep * self.timestep())
+        self._activate_near(nstep * self._opt.timestep)
         if moving is not None:
             moving_xy = np.stack([moving.real, moving.imag], axis=-1)
-        robot = np.empty(nstep, dtype=np.complex128)
-        qpos = self._qpos
-        with self.check_invalid_state():
-            for k in range(nstep):
-                mujoco.mj_step2(m, d)
-                if moving_xy is not None:
-                    self._mocap_xy[:] = moving_xy[k]
-                mujoco.mj_step1(m, d)
-                robot[k] = complex(qpos[0], qpos[1])
-                if d.ncon and not self.collided:
-                    self._record_contact()
+        robot = np.empty((nstep, 2))  # x, y after each substep
+        qpos, mocap_xy, step1, step2 = self._qpos, self._mocap_xy, mujoco.mj_step1, mujoco.mj_step2
+        # dm_control's check_invalid_state, without a context manager per step
+        warnings = self._warnings.tobytes()
+        for k in range(nstep):
+            step2(m, d)
+            if moving_xy is not None:
+                mocap_xy[:] = moving_xy[k]
+            step1(m, d)
+            robot[k, 0] = qpos[0]
+            robot[k, 1] = qpos[1]
+            if d.ncon and not self.collided:
+                self._record_contact()
+        if self._warnings.tobytes() != warnings:
+            self._raise_warnings(np.frombuffer(warnings, self._warnings.dtype))
         if moving is not None:
             self._set_mocap_heading(self._moving.theta)
-        clearance = self._update_clearance(robot, moving)
+        clearance = self._update_clearance(robot.view(np.complex128)[:, 0], moving)
         self._clearance = clearance[-1]
         self.min_clearance = min(self.min_clearance, clearance.min())
 
+    def _raise_warnings(self, before):
+        """dm_control's PhysicsError (or its log line under suppress_physics_errors) for the
+        MuJoCo warnings counted since `before` (mjNWARNING,)."""
+        with self.check_invalid_state():
+            self._warnings_before[:] = before
+
     def _activate_near(self, duration):
-        """Enables collisions with the obstacles the robot could touch within `duration`."""
+        """Enables collisions with the obstacles the robot could touch within `duration`
+        (writes the model only when that set changed)."""
         reach = 0.5 + self._speed_bound * duration
-        m = self._m
-        m.geom_conaffinity[self._solid_ids] = self._static_clearance < reach
-        if len(self._moving_ids):
-            near = self._moving_clearance < reach
-            m.geom_conaffinity[self._moving_ids] = near
-            m.body_conaffinity[self._moving_bodies] = near
+        static = self._static_clearance < reach
+        moving = self._moving_clearance < reach if len(self._moving_ids) else static[:0]
+        near = static.tobytes() + moving.tobytes()
+        if near != self._near:
+            self._near = near
+            self._geom_conaffinity[self._solid_ids] = static
+            if len(self._moving_ids):
+                self._geom_conaffinity[self._moving_ids] = moving
+                self._body_conaffinity[self._moving_bodies] = moving
 
     def _record_contact(self):
         d = self._d
@@ -321,17 +342,25 @@ class Physics(dm_mujoco.Physics):
 
         Also keeps each obstacle's clearance at the last centre for `_activate_near`.
         """
-        clearance = np.full(len(robot), np.inf)
-        self._static_clearance = np.zeros(0)
-        if len(self._solid):
-            each = np.abs(robot[:, None] - self._solid_z) - self._solid[:, 2]
-            self._static_clearance = each[-1] - self.robot_radius
+        radius = self.robot_radius
+        clearance = None
+        if len(self._solid_r):
+            each = np.abs(robot[:, None] - self._solid_z)
+            each -= self._solid_r
+            self._static_clearance = each[-1] - radius
             clearance = each.min(axis=1)
+        else:
+            self._static_clearance = self._solid_r
         if moving is not None:
-            each = np.abs(moving - robot[:, None]) - self._moving_obs[:, 3]
-            self._moving_clearance = each[-1] - self.robot_radius
-            clearance = np.minimum(clearance, each.min(axis=1))
-        return clearance - self.robot_radius
+            each = np.abs(moving - robot[:, None])
+            each -= self._moving_obs[:, 3]
+            self._moving_clearance = each[-1] - radius
+            nearest = each.min(axis=1)
+            clearance = nearest if clearance is None else np.minimum(clearance, nearest)
+        if clearance is None:
+            return np.full(len(robot), np.inf)
+        clearance -= radius
+        return clearance
 
     # Readouts -------------------------------------------------------------------------------
 
@@ -347,6 +376,10 @@ class Physics(dm_mujoco.Physics):
         pose = self._qpos[:3].copy()
         pose[2] = (pose[2] + math.pi) % (2.0 * math.pi) - math.pi
         return pose
+
+    def robot_position(self):
+        """x, y of the robot (floats)."""
+        return self._qpos[0].item(), self._qpos[1].item()
 
     def robot_velocity(self):
         """(3,) world-frame vx, vy and yaw rate."""
@@ -517,6 +550,11 @@ class Navigation(control.Task):
         )
         self._outcome = None
         self._min_clearance = physics.min_clearance
+        # what after_step compares with, as floats
+        self._goal = tuple(float(v) for v in world.goal)
+        self._map_bounds = tuple(float(v) for v in world.map_bounds)
+        self._end_time = self.time_limit - 0.5 * physics.timestep()
+        self._noise_std = np.sqrt(self.Sigma)
         self._observation = collections.OrderedDict(
             robot_pose=None,
             robot_velocity=None,
@@ -536,34 +574,48 @@ class Navigation(control.Task):
 
     def before_step(self, action, physics):
         u = np.asarray(action, dtype=np.float64).reshape(-1)
-        if u.shape != (self.agent.nu,) or not np.isfinite(u).all():
-            raise ValueError(
-                f"action must be {self.agent.nu} finite number(s) {self.agent.controls} "
-                f"(agent {self.agent.name!r}), got {action!r}"
-            )
-        u = self.agent.project(u[:, None], axis=0)[:, 0]
+        if not (u.shape == (self.agent.nu,) and self._strictly_inside(u.tolist())):
+            if u.shape != (self.agent.nu,) or not np.isfinite(u).all():
+                raise ValueError(
+                    f"action must be {self.agent.nu} finite number(s) {self.agent.controls} "
+                    f"(agent {self.agent.name!r}), got {action!r}"
+                )
+            u = self.agent.project(u[:, None], axis=0)[:, 0]
         if self.noise != "none":
-            u = u + np.sqrt(self.Sigma) * self._noise_random.randn(self.agent.nu)
+            u = u + self._noise_std * self._noise_random.randn(self.agent.nu)
         if self.noise == "process":
             physics.set_disturbance(self.process_std * self._noise_random.randn(3))
         physics.set_command(self._command(u))
+
+    def _strictly_inside(self, u):
+        """Whether the controls u (list of nu floats) lie strictly inside the agent's box and
+        clearly inside its norm bound, where agent.project returns them unchanged (it is
+        skipped then: the same floats, without its array work)."""
+        agent = self.agent
+        for lo, x, hi in zip(agent.lower.tolist(), u, agent.upper.tolist(), strict=True):
+            if not lo < x < hi:
+                return False
+        if agent.norm_axes is None:
+            return True
+        squared = sum(u[i] * u[i] for i in agent.norm_axes)
+        return squared < (1.0 - 1e-9) * agent.norm_limit**2
 
     def after_step(self, physics):
         self._min_clearance = physics.min_clearance
         if self._outcome is not None:
             return
-        goal = self.world.goal if self.world is not None else None
-        x, y = physics.robot_pose()[:2]
-        xmin, ymin, xmax, ymax = (
-            self.world.map_bounds if self.world is not None else self.map_bounds
-        )
+        x, y = physics.robot_position()
+        xmin, ymin, xmax, ymax = self._map_bounds
+        gx, gy = self._goal
+        dx, dy = x - gx, y - gy
         if physics.collided:
             self._outcome = "collision"
-        elif np.hypot(x - goal[0], y - goal[1]) <= GOAL_TOLERANCE:
+        # hypot >= max(|dx|, |dy|): np.hypot only where it can be within the tolerance
+        elif max(abs(dx), abs(dy)) <= GOAL_TOLERANCE and np.hypot(dx, dy) <= GOAL_TOLERANCE:
             self._outcome = "goal"
         elif not (xmin <= x <= xmax and ymin <= y <= ymax):
             self._outcome = "left_map"
-        elif physics.time() >= self.time_limit - 0.5 * physics.timestep():
+        elif physics.time() >= self._end_time:
             self._outcome = "time_limit"
 
     def get_observation(self, physics):

@@ -132,16 +132,27 @@ def act(controller, observation) -> np.ndarray:
         observation["moving_obstacles"],
         observation["obstacle_model"],
     )
-    cls = type(controller)
-    extra = {"bounds": observation["map_bounds"]}
-    for name in ("moving_velocity", "moving_futures"):
-        if name in observation:
-            extra[name] = observation[name]
-    u = controller.act(*args, **{k: v for k, v in extra.items() if _takes(cls, k)})
+    extra = {
+        name: observation[key] for name, key in _keywords(type(controller)) if key in observation
+    }
+    u = controller.act(*args, **extra)
     return np.asarray(u, dtype=np.float64).reshape(-1)
 
 
+# act's keywords: (controller keyword, observation key)
+_KEYWORDS = (
+    ("bounds", "map_bounds"),
+    ("moving_velocity", "moving_velocity"),
+    ("moving_futures", "moving_futures"),
+)
+
+
 @functools.cache
+def _keywords(cls) -> tuple:
+    """Those of _KEYWORDS whose keyword cls.act accepts."""
+    return tuple((name, key) for name, key in _KEYWORDS if _takes(cls, name))
+
+
 def _takes(cls, name: str) -> bool:
     """Whether cls.act accepts the keyword `name`."""
     try:
@@ -210,7 +221,7 @@ class Diagnosis:
         labels = getattr(d, "labels", None)
         if labels is not None:
             labels = np.asarray(labels)
-            self.clusters.append(len(np.unique(labels[labels >= 0])))
+            self.clusters.append(_distinct(labels[labels >= 0], len(labels)))
             self.fallback.append(getattr(d, "chosen", -1) == -1)
         deviation = getattr(d, "nominal_deviation", None)
         nominal = getattr(d, "nominal_state", None)
@@ -233,6 +244,14 @@ class Diagnosis:
             if self.deviation
             else None,
         }
+
+
+def _distinct(values: np.ndarray, bound: int) -> int:
+    """The number of distinct values (n,): by counting where they are integers in [0, bound)
+    (DBSCAN's labels), else by sorting."""
+    if values.dtype.kind == "i" and values.max(initial=0) < bound:
+        return int(np.count_nonzero(np.bincount(values)))
+    return len(np.unique(values))
 
 
 PERSONAL_SPACE = 0.5  # [m] a pedestrian's surface this close to the robot's is in its space

@@ -93,6 +93,10 @@ def draw_normals(key, draw, shape, scale, add=None, threads=1):
     add = _NO_ADD if add is None else np.ascontiguousarray(add, dtype=float)
     key, draw = np.uint64(key), np.uint64(draw)
 
+    if threads == 1:
+        _draw(key, draw, out, scale, add, 0, shape[2])
+        return out
+
     def part(j0, j1):
         _draw(key, draw, out, scale, add, j0, j1)
 

@@ -268,3 +268,19 @@ def test_agent_model_matches_its_mujoco_plant_over_one_second(agent):
     message = f"{agent} plant vs analytic model after 1 s: " + "; ".join(report)
     assert not failures, message
     print(message)
+
+
+def test_an_invalid_physics_state_raises_dm_control_s_physics_error():
+    """Physics.step checks MuJoCo's warnings as dm_control's check_invalid_state does (it reads
+    dm_control's private warning counters: this test guards a dm_control update)."""
+    from dm_control.rl.control import PhysicsError
+
+    env = tasks.load("blocked")
+    env.reset()
+    env.physics.step(10)  # a valid step raises nothing
+    env.physics.data.qvel[0] = np.nan  # MuJoCo warns (a bad state) and resets it
+    with pytest.raises(PhysicsError, match="Physics state is invalid. Warning.s. raised: mjWARN"):
+        env.physics.step(10)
+    env.physics.data.qvel[0] = np.nan
+    with env.physics.suppress_physics_errors():  # dm_control's switch: a log line instead
+        env.physics.step(10)

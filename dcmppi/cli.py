@@ -587,7 +587,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = command(
         "outcomes",
         "the same outcomes within chance? old and new code on paired episodes, per row: "
-        "McNemar p > 0.05 and each collision rate in the other's 95 % interval (exit 1 if not)",
+        "McNemar p > 0.05 and each collision rate in the other's 95 %% interval (exit 1 if not)",
         cmd_outcomes,
     )
     p.add_argument(

@@ -24,6 +24,7 @@ from dm_env import specs
 
 from dcmppi.control import defaults
 from dcmppi.control.agents import make_agent
+from dcmppi.control.agents.projection import bound
 from dcmppi.control.validation import positive
 
 from . import pedestrians, robots, worlds
@@ -574,31 +575,17 @@ class Navigation(control.Task):
 
     def before_step(self, action, physics):
         u = np.asarray(action, dtype=np.float64).reshape(-1)
-        if not (u.shape == (self.agent.nu,) and self._strictly_inside(u.tolist())):
-            if u.shape != (self.agent.nu,) or not np.isfinite(u).all():
-                raise ValueError(
-                    f"action must be {self.agent.nu} finite number(s) {self.agent.controls} "
-                    f"(agent {self.agent.name!r}), got {action!r}"
-                )
-            u = self.agent.project(u[:, None], axis=0)[:, 0]
+        if u.shape != (self.agent.nu,) or not np.isfinite(u).all():
+            raise ValueError(
+                f"action must be {self.agent.nu} finite number(s) {self.agent.controls} "
+                f"(agent {self.agent.name!r}), got {action!r}"
+            )
+        u = bound(self.agent, u)  # agent.project's values, in one compiled call
         if self.noise != "none":
             u = u + self._noise_std * self._noise_random.randn(self.agent.nu)
         if self.noise == "process":
             physics.set_disturbance(self.process_std * self._noise_random.randn(3))
         physics.set_command(self._command(u))
-
-    def _strictly_inside(self, u):
-        """Whether the controls u (list of nu floats) lie strictly inside the agent's box and
-        clearly inside its norm bound, where agent.project returns them unchanged (it is
-        skipped then: the same floats, without its array work)."""
-        agent = self.agent
-        for lo, x, hi in zip(agent.lower.tolist(), u, agent.upper.tolist(), strict=True):
-            if not lo < x < hi:
-                return False
-        if agent.norm_axes is None:
-            return True
-        squared = sum(u[i] * u[i] for i in agent.norm_axes)
-        return squared < (1.0 - 1e-9) * agent.norm_limit**2
 
     def after_step(self, physics):
         self._min_clearance = physics.min_clearance

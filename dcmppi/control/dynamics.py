@@ -106,34 +106,32 @@ def arc_columns(out, u, dt, v, cols=None):
     """arc_rollout of the samples cols = (j0, j1) (None: all) into their columns of out
     (3, N + 1, S, K), whose start states out[:, 0] are set."""
     j0, j1 = cols or (0, u.shape[2])
-    buffers = np.empty((4, j1 - j0))
-    _arcs(out, u, 0.5 * dt, dt if v is None else v * dt, j0, j1, buffers)
+    _arcs(out, u, 0.5 * dt, dt if v is None else v * dt, j0, j1)
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _arcs(out, u, half_dt, vdt, j0, j1, buffers):
+def _arcs(out, u, half_dt, vdt, j0, j1):
     """The arcs of the samples j0:j1, one pass per step: wraps their start headings out[2, 0]
     to [-pi, pi), then x_{i+1} = x_i + chord_i cos(theta_i + a_i), y likewise and theta_{i+1} =
     theta_i + 2 a_i with a_i = omega_i dt / 2 and chord_i = v dt sinc(a_i) (sinc's series below
     _SINC_SERIES_MAX, sin(a) / a above, per arc; per-period speeds: (dt sinc(a)) v). The sines
     and cosines are dcmppi.control.libm's, so the loops vectorise.
     out: (3, n + 1, S, K); u: (n, 1, K) turn rates (one speed: vdt = v dt) or (n, 2, K)
-    speeds and turn rates (vdt = dt); buffers: (4, >= j1 - j0) scratch."""
+    speeds and turn rates (vdt = dt)."""
     n, starts, k = u.shape[0], out.shape[2], j1 - j0
     turn = u.shape[1] - 1  # the turn rate's column; a speed's is 0 when there are two
     for s in range(starts):
         first = out[2, 0, s, j0:j1]
         for j in range(k):
             first[j] = _wrap(first[j])
-    a, chord, sin, cos = buffers[0, :k], buffers[1, :k], buffers[2, :k], buffers[3, :k]
+    a, chord, sin, cos = np.empty(k), np.empty(k), np.empty(k), np.empty(k)  # one step's, reused
     for i in range(n):
         omega = u[i, turn, j0:j1]
         beyond = 0  # arcs too sharp for the series (a count, not a flag: the loop vectorises)
         for j in range(k):
             aj = omega[j] * half_dt
             a[j] = aj
-            a2 = aj * aj
-            chord[j] = vdt * (1.0 + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 - a2 / 5040.0)))
+            chord[j] = vdt * _sinc_series(aj)
             beyond += abs(aj) >= _SINC_SERIES_MAX
         if beyond:
             for j in range(k):

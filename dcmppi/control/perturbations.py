@@ -54,17 +54,17 @@ def _draw(key, draw, out, scale, add, j0, j1):
     step = _mix(key ^ _mix(draw))
     for b0 in range(j0, j1, BLOCK):
         k = min(b0 + BLOCK, j1) - b0
-        h = BLOCK // 2 if k == BLOCK else (k + 1) // 2  # pairs: samples j and h + j share one
         base = _mix(step + np.uint64(b0 // BLOCK) * _GAMMA)
         for i in range(rows):
             for c in range(nu):
                 o, s = out[i, c, b0 : b0 + k], scale[c]
                 first = np.uint64((i * nu + c) * BLOCK + 1)
-                if k == BLOCK:  # a constant offset: the loop vectorises
+                if k == BLOCK:  # samples j and BLOCK / 2 + j share a pair; the loop vectorises
                     for j in range(BLOCK // 2):
                         z = _pair(base, first + np.uint64(2 * j), s)
                         o[j], o[BLOCK // 2 + j] = z
-                else:
+                else:  # a last, shorter block: samples j and h + j share a pair
+                    h = (k + 1) // 2
                     for j in range(h):
                         z = _pair(base, first + np.uint64(2 * j), s)
                         o[j] = z[0]
@@ -92,10 +92,6 @@ def draw_normals(key, draw, shape, scale, add=None, threads=1):
     scale = np.asarray(scale, dtype=float)
     add = _NO_ADD if add is None else np.ascontiguousarray(add, dtype=float)
     key, draw = np.uint64(key), np.uint64(draw)
-
-    if threads == 1:
-        _draw(key, draw, out, scale, add, 0, shape[2])
-        return out
 
     def part(j0, j1):
         _draw(key, draw, out, scale, add, j0, j1)

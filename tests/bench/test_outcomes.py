@@ -51,3 +51,16 @@ def test_other_seeds_or_experiments_are_refused(tmp_path):
         compare(old, _db(tmp_path / "seeds.db", [False] * 3, seed=7))
     with pytest.raises(ValueError, match="experiment 'static' and the new 'dynamic'"):
         compare(old, _db(tmp_path / "dyn.db", [False] * 3, experiment="dynamic"))
+
+
+def test_databases_without_a_shared_finished_episode_are_refused(tmp_path):
+    old = _db(tmp_path / "old.db", [False] * 3)
+    exp = load_experiment("static").select(3, ("mppi",), ("none",))
+    db = ResultsDB(tmp_path / "errors.db", exp.config())
+    db.begin_run(exp.to_dict())
+    for i in range(3):  # every episode an error row
+        db.record(("none", "mppi", i), EpisodeSpec(exp.task, "mppi", "none", i), {"error": "x"})
+    db.end_run()
+    db.close()
+    with pytest.raises(ValueError, match="share no finished episode"):
+        compare(old, tmp_path / "errors.db")

@@ -209,7 +209,9 @@ def test_a_registered_agent_plans_with_every_controller():
 def test_bound_gives_project_s_values_for_one_control_vector(agent):
     a = make_agent(agent)
     rng = np.random.default_rng(4)
-    for scale in (0.1, 1.0, 5.0):  # inside, on, and far beyond the box and the disc
-        for u in rng.normal(0.0, scale, (200, a.nu)):
-            want = a.project(u[None], axis=1)[0]
-            assert np.array_equal(bound(a, u), want)
+    edges = [a.lower, a.upper, np.zeros(a.nu), -np.zeros(a.nu)]  # on the box, signed zeros
+    edges += [np.where(np.arange(a.nu) % 2, a.lower, -0.0), np.where(a.lower == 0, -0.0, a.upper)]
+    for u in [*edges, *rng.normal(0.0, 1.0, (200, a.nu)) * rng.choice([0.1, 1.0, 5.0], (200, 1))]:
+        want = a.project(u[None], axis=1)[0]  # inside, on and far beyond the box and the disc
+        got = bound(a, u)
+        assert np.array_equal(got, want) and np.array_equal(np.signbit(got), np.signbit(want)), u

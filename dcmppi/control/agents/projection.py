@@ -118,9 +118,12 @@ def bound(agent, u):
 
 @numba.njit(cache=True)
 def _bound(u, lower, upper, p, q, limit):
-    """min(max(u, lower), upper), then u_p and u_q scaled back onto the disc of radius limit
-    (np.inf: none)."""
-    out = np.minimum(np.maximum(u, lower), upper)
+    """np.clip(u, lower, upper), then u_p and u_q scaled back onto the disc of radius limit
+    (np.inf: none). The clip picks as numpy's does (a bound when equal: signed zeros too)."""
+    out = np.empty_like(u)
+    for c in range(len(u)):
+        x = u[c] if u[c] > lower[c] else lower[c]
+        out[c] = x if x < upper[c] else upper[c]
     norm = np.sqrt(out[p] * out[p] + out[q] * out[q])
     if norm > limit:
         scale = limit / max(norm, 1e-300)

@@ -27,16 +27,16 @@ so both planners see the same numbers. Identical in the two:
 - one thread: torch.set_num_threads(1), and threadpoolctl's limit of 1 for ours (numba's loops
   run serially).
 Different:
-- random numbers: torch.randn (seeded torch.manual_seed(0)) against numpy's PCG64 (seed 0), so
-  the two plans differ by their samples only; with the same perturbations the first plans agree
-  to 1e-6 (test);
+- random numbers: torch.randn (seeded torch.manual_seed(0)) against our counter-based draws
+  (dcmppi.control.perturbations, seed 0), so the two plans differ by their samples only; with
+  the same perturbations the first plans agree to 1e-6 (test);
 - cost of the start state x_0: pytorch_mppi's running cost sees x_1 .. x_N (terminal_state_cost
   None: our terminal cost is the running cost of x_N, already summed), ours x_0 .. x_N; c(x_0) is
   the same for every sample, so it shifts S by a constant and leaves weights and plan unchanged;
 - the warm start's last control after the shift: u_init = 0 in pytorch_mppi, ours repeats the
   plan's last control (its API fixes u_init to a constant);
-- arithmetic: pytorch_mppi in float64 throughout; our rollouts take cos and sin of the headings
-  in float32 (positions within 1e-6 m) and sinc from its series;
+- arithmetic: both in float64; our rollouts take sin and cos from dcmppi.control.libm (within
+  2 ulp of libm's) and sinc from its series for small arcs;
 - implementation: pytorch_mppi steps the batch through Python-level torch calls per horizon step,
   ours runs numba loops; our act() also checks its inputs every step. pytorch_mppi's optional
   MPPI.compile (torch.compile of the dynamics and cost) is not used: in one trial on the 2-core

@@ -12,6 +12,7 @@ plus its own. Each step, the predictor turns the moving obstacles into tracks, t
 scores rollouts, and the subclass's `_solve` plans with them.
 """
 
+import functools
 import numbers
 
 import numpy as np
@@ -22,7 +23,7 @@ from .agents.projection import NO_SUMS, bound, project_columns, project_perturbe
 from .costs import RESOLUTION, OccupancyGrid, valid_cylinders
 from .diagnostics import Diagnostics
 from .objective import Objective
-from .perturbations import draw_normals
+from .perturbations import draw_box, draw_normals
 from .predictors import predictor_class
 from .predictors.base import INPUTS
 from .temperature import COLLISION_NATS, ESS_TARGET, choose_lambda
@@ -277,21 +278,29 @@ class Controller:
         importance term assumes.
         """
         shape = (self.N, self.nu, self.K)
-        self._raw = None
-        if self.perturbation == "time_varying":
-            return self._normals(shape, self.sigma)
-        raw = self._normals((1, self.nu, self.K), self.sigma)[0]
         if self.perturbation == "constant":
-            self._raw = raw
+            self._raw = raw = self._normals((1, self.nu, self.K), self.sigma)[0]
             return np.broadcast_to(raw, shape)
-        half = np.sqrt(0.5)  # each draw N(0, Sigma / 2): the sum has variance Sigma at every step
-        return self._normals(shape, half * self.sigma, half * raw)
+        draw, scale, add = self._per_step()
+        return draw_normals(self._key, draw, shape, scale, add, self.threads)
 
-    def _normals(self, shape, scale, add=None):
-        """The next draw of this episode's perturbation stream (dcmppi.control.perturbations):
-        z * scale[:, None] (+ add) for standard normals z (R, nu, K)."""
+    def _per_step(self):
+        """The next per-step draw (time_varying, mixed) for sample(): its number, scale (nu,)
+        and added term (nu, K) or None (mixed: half of a constant draw made now)."""
+        self._raw = None  # no constant draw of the whole horizon this step
+        scale, add = self.sigma, None
+        if self.perturbation == "mixed":
+            half = np.sqrt(0.5)  # each draw N(0, Sigma / 2): the sum has variance Sigma each step
+            raw = self._normals((1, self.nu, self.K), self.sigma)[0]
+            scale, add = half * self.sigma, half * raw
         self._draws += 1
-        return draw_normals(self._key, self._draws, shape, scale, add, self.threads)
+        return self._draws, scale, add
+
+    def _normals(self, shape, scale):
+        """The next draw of this episode's perturbation stream (dcmppi.control.perturbations):
+        z * scale[:, None] for standard normals z (1, nu, K), on this thread."""
+        self._draws += 1
+        return draw_normals(self._key, self._draws, shape, scale)
 
     def controls(self, U0, eps, sums=False):
         """Bounded controls project(U0 + eps) (N, nu, K) and the perturbations that remain
@@ -299,40 +308,51 @@ class Controller:
         clustering features."""
         return project_perturbed(self.agent, U0, eps, sums)
 
-    def perturbed_rollouts(self, x0, eps, starts=1, sums=False, moving=False):
+    def perturbed_rollouts(self, x0, eps=None, starts=1, sums=False, moving=False):
         """A step's per-sample work, its samples split over `threads` threads: the controls
         project(U + eps) (Controller.controls), their rollouts from x0 and costs under this
         step's objective (Controller.evaluate), and the importance term (Controller.importance).
 
         x0: (3,), or (3, S) with starts = S > 1: every sample rolls out from each start.
-        eps: (N, nu, K) perturbations (Controller.sample).
+        eps: (N, nu, K) perturbations, or None: this step's (Controller.sample); per-step draws
+          into a box (dubins, unicycle) are then bounded block by block as they are drawn, with
+          the values of sample() then controls() (perturbations.draw_box).
         Returns e (N, nu, K) the perturbations that remain, states (3, N + 1, S K), J (S K,),
         the importance term (K,); with sums=True also the horizon sums of e (nu, K), with
         moving=True J's moving-obstacle term (S K,) (None: 0).
         """
-        U0, k = self.U, eps.shape[2]
-        ranges = parts(k, self.threads)
+        agent, U0, K = self.agent, self.U, self.K
+        draw = None
+        if eps is None and self.perturbation != "constant" and agent.norm_axes is None:
+            draw = self._per_step()
+            project = functools.partial(draw_box, self._key, *draw, U0, agent.lower, agent.upper)
+        else:
+            if eps is None:
+                with self.timer("sample"):
+                    eps = self.sample()
+            project = functools.partial(project_columns, agent, U0, eps)
+        ranges = parts(K, self.threads)
+        u, e = np.empty((self.N, self.nu, K)), np.empty((self.N, self.nu, K))
+        total = np.zeros((self.nu, K)) if sums else NO_SUMS
         if len(ranges) == 1:  # the whole batch on this thread
             with self.timer("controls"):
-                u, e, *total = self.controls(U0, eps, sums)
+                project(u, e, total)
             states, J, term = self.evaluate(x0, u, starts, moving=True)
             with self.timer("importance"):
                 importance = self.importance(U0, e)
-            return e, states, J, importance, *total, *([term] if moving else [])
-        agent, objective = self.agent, self.objective
-        u, e = np.empty(eps.shape), np.empty(eps.shape)
-        total = np.zeros((self.nu, k)) if sums else NO_SUMS
-        out = np.empty((3, self.N + 1, starts, k))
+            return e, states, J, importance, *([total] if sums else []), *([term] if moving else [])
+        objective = self.objective
+        out = np.empty((3, self.N + 1, starts, K))
         out[:, 0] = np.reshape(x0, (3, starts, -1))
-        states = out.reshape(3, self.N + 1, starts * k)
-        J, importance = np.empty(starts * k), np.empty(k)
-        term = None if objective.tracks.empty else np.empty(starts * k)
+        states = out.reshape(3, self.N + 1, starts * K)
+        J, importance = np.empty(starts * K), np.empty(K)
+        term = None if objective.tracks.empty else np.empty(starts * K)
 
         def part(j0, j1):
-            project_columns(agent, U0, eps, u, e, total, (j0, j1))
+            project(u, e, total, (j0, j1))
             agent.rollout_columns(out, u, self.dt, (j0, j1))
             for s in range(starts):
-                c0, c1 = s * k + j0, s * k + j1
+                c0, c1 = s * K + j0, s * K + j1
                 J[c0:c1], t = objective(states, True, (c0, c1))
                 if term is not None:
                     term[c0:c1] = t

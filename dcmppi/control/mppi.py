@@ -44,9 +44,7 @@ class MPPI(Controller):
         """Sample, roll out and score: eps (N, nu, K), states (3, N + 1, K), J (K,), S (K,);
         with sums=True also the horizon sums of eps (nu, K) (see Controller.controls), with
         moving=True also J's moving-obstacle term (K,) (None: 0)."""
-        with self.timer("sample"):
-            eps = self.sample()
-        eps, states, J, importance, *out = self.perturbed_rollouts(state, eps, 1, sums, moving)
+        eps, states, J, importance, *out = self.perturbed_rollouts(state, None, 1, sums, moving)
         return eps, states, J, J + importance, *out
 
     def record(self, eps, states, J, S):

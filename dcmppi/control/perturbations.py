@@ -46,34 +46,80 @@ def _pair(base, n, s):
     return radius * cs, radius * sn
 
 
+@numba.njit(inline="always")
+def _block_row(base, first, o, s):
+    """o[:] = the k = len(o) <= BLOCK normals times s of one row of a block from words first ..
+    of the stream base."""
+    k = len(o)
+    if k == BLOCK:  # samples j and BLOCK / 2 + j share a pair; the loop vectorises
+        for j in range(BLOCK // 2):
+            z = _pair(base, first + np.uint64(2 * j), s)
+            o[j], o[BLOCK // 2 + j] = z
+    else:  # a last, shorter block: samples j and h + j share a pair
+        h = (k + 1) // 2
+        for j in range(h):
+            z = _pair(base, first + np.uint64(2 * j), s)
+            o[j] = z[0]
+            if h + j < k:
+                o[h + j] = z[1]
+
+
+@numba.njit(inline="always")
+def _block_bases(key, draw, j0, j1):
+    """The streams of the blocks that start at samples j0, j0 + BLOCK, .. < j1 in draw `draw`
+    under `key`."""
+    step = _mix(key ^ _mix(draw))
+    bases = np.empty(-(-(j1 - j0) // BLOCK), dtype=np.uint64)
+    for b in range(len(bases)):
+        bases[b] = _mix(step + np.uint64((j0 + b * BLOCK) // BLOCK) * _GAMMA)
+    return bases
+
+
+@numba.njit(inline="always")
+def _draw_row(bases, i, c, out, scale, add, j0, j1):
+    """out[i, c, j0:j1] = the normals of row i, control c of the blocks of `bases` times scale[c]
+    (+ add[c, j0:j1] when add is (nu, K)); returns that slice."""
+    first = np.uint64((i * out.shape[1] + c) * BLOCK + 1)
+    for b in range(len(bases)):
+        b0 = j0 + b * BLOCK
+        _block_row(bases[b], first, out[i, c, b0 : min(b0 + BLOCK, j1)], scale[c])
+    o = out[i, c, j0:j1]
+    if add.shape[0]:
+        a = add[c, j0:j1]
+        for j in range(len(o)):
+            o[j] += a[j]
+    return o
+
+
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _draw(key, draw, out, scale, add, j0, j1):
     """out[:, :, j0:j1] = z * scale[c] (+ add[c, j] when add is (nu, K)) for standard normals z
-    of the blocks j0 // BLOCK .. of draw `draw` under `key`. out: (R, nu, K)."""
-    rows, nu = out.shape[0], out.shape[1]
-    step = _mix(key ^ _mix(draw))
-    for b0 in range(j0, j1, BLOCK):
-        k = min(b0 + BLOCK, j1) - b0
-        base = _mix(step + np.uint64(b0 // BLOCK) * _GAMMA)
-        for i in range(rows):
-            for c in range(nu):
-                o, s = out[i, c, b0 : b0 + k], scale[c]
-                first = np.uint64((i * nu + c) * BLOCK + 1)
-                if k == BLOCK:  # samples j and BLOCK / 2 + j share a pair; the loop vectorises
-                    for j in range(BLOCK // 2):
-                        z = _pair(base, first + np.uint64(2 * j), s)
-                        o[j], o[BLOCK // 2 + j] = z
-                else:  # a last, shorter block: samples j and h + j share a pair
-                    h = (k + 1) // 2
-                    for j in range(h):
-                        z = _pair(base, first + np.uint64(2 * j), s)
-                        o[j] = z[0]
-                        if h + j < k:
-                            o[h + j] = z[1]
-                if add.shape[0]:
-                    a = add[c, b0 : b0 + k]
-                    for j in range(k):
-                        o[j] += a[j]
+    of the blocks j0 // BLOCK .. of draw `draw` under `key`, row by row. out: (R, nu, K)."""
+    bases = _block_bases(key, draw, j0, j1)
+    for i in range(out.shape[0]):
+        for c in range(out.shape[1]):
+            _draw_row(bases, i, c, out, scale, add, j0, j1)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _draw_box(key, draw, scale, add, U0, lower, upper, u, e, sums, j0, j1):
+    """_draw's eps into the box, row by row while the row is in the cache: u = min(max(U0 + eps,
+    lower), upper) and e = u - U0 in columns j0:j1 of u, e (N, nu, K), and when sums is (nu, K)
+    the horizon sums of e added to it step by step (projection._clip_box's values; eps itself
+    is not kept)."""
+    bases = _block_bases(key, draw, j0, j1)
+    for i in range(u.shape[0]):
+        for c in range(u.shape[1]):
+            o, r = _draw_row(bases, i, c, u, scale, add, j0, j1), e[i, c, j0:j1]
+            u0, lo, hi = U0[i, c], lower[c], upper[c]
+            for j in range(len(o)):
+                v = min(max(u0 + o[j], lo), hi)
+                o[j] = v
+                r[j] = v - u0
+            if sums.shape[0]:
+                total = sums[c, j0:j1]
+                for j in range(len(o)):
+                    total[j] += r[j]
 
 
 _NO_ADD = np.zeros((0, 0))
@@ -98,3 +144,17 @@ def draw_normals(key, draw, shape, scale, add=None, threads=1):
 
     run(part, parts(shape[2], threads))
     return out
+
+
+def draw_box(key, draw, scale, add, U0, lower, upper, u, e, sums, cols=None):
+    """The controls of the draw `draw` of the stream `key` (draw_normals' eps = z * scale[:, None]
+    (+ add)) in their box, into the samples cols = (j0, j1) (None: all) of u, e (N, nu, K): u =
+    min(max(U0 + eps, lower), upper), e = u - U0, with the horizon sums of e added to sums (nu, K)
+    (a (0, 0) array: none); the values of draw_normals then agents.projection's box, in one pass.
+
+    scale, lower, upper: (nu,); add: (nu, K) or None; U0: (N, nu).
+    """
+    j0, j1 = cols or (0, u.shape[2])
+    add = _NO_ADD if add is None else np.ascontiguousarray(add, dtype=float)
+    _draw_box(np.uint64(key), np.uint64(draw), np.asarray(scale, dtype=float), add, U0, lower,
+              upper, u, e, sums, j0, j1)  # fmt: skip

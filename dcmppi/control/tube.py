@@ -135,9 +135,7 @@ class TubeMPPI(MPPI):
         z = state.copy() if self.nominal is None else self.nominal
         deviation = float(np.hypot(*(state[:2] - z[:2])))  # tracking error of the last step
         timer = self.timer
-        with timer("sample"):
-            eps = self.sample()
-        eps, states, J, S, reset = self._two_solves(z, state, eps)
+        eps, states, J, S, reset = self._two_solves(z, state)
         if reset:
             z = state.copy()
         lam = self.temperature(S)  # the chosen solve's (S does not depend on it)
@@ -156,9 +154,9 @@ class TubeMPPI(MPPI):
         d.plan = plan
         return action
 
-    def _two_solves(self, z, state, eps):
-        """Rollouts from the nominal state z and the real state with the same perturbations eps
-        (N, nu, K).
+    def _two_solves(self, z, state):
+        """Rollouts from the nominal state z and the real state with the same perturbations
+        (this step's draw).
 
         Returns the perturbations that remain after projection (N, nu, K), the chosen solve's
         states (3, N + 1, K), J (K,), S (K,) and the reset flag. When z equals the real state
@@ -167,12 +165,12 @@ class TubeMPPI(MPPI):
         start states (heading increments and sinc terms shared).
         """
         if np.array_equal(z, state):
-            eps, states, J, importance = self.perturbed_rollouts(state, eps)
+            eps, states, J, importance = self.perturbed_rollouts(state)
             S = J + importance
             m = S.min()
             return eps, states, J, S, bool(m < m + self.reset_threshold)
         K = self.K
-        eps, states, J, importance = self.perturbed_rollouts(np.column_stack([z, state]), eps, 2)
+        eps, states, J, importance = self.perturbed_rollouts(np.column_stack([z, state]), None, 2)
         J_nom, J_real = J[:K], J[K:]
         S_nom, S_real = J_nom + importance, J_real + importance
         reset = S_real.min() < S_nom.min() + self.reset_threshold or (

@@ -5,8 +5,11 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from dcmppi.control import make_controller
+from dcmppi.control.agents.projection import NO_SUMS, project_perturbed
 from dcmppi.control.libm import log_unit, sincos
-from dcmppi.control.perturbations import BLOCK, draw_normals
+from dcmppi.control.perturbations import BLOCK, draw_box, draw_normals
+from dcmppi.control.threads import parts
 
 
 @numba.njit
@@ -83,3 +86,44 @@ def test_draws_are_the_same_for_every_split_and_keep_whole_blocks(k):
     whole = (k // BLOCK) * BLOCK  # whole blocks do not depend on K
     longer = draw_normals(5, 9, (4, 2, k + BLOCK), np.ones(2))
     assert np.array_equal(unit[..., :whole], longer[..., :whole])
+
+
+@pytest.mark.parametrize("k", [3, 64, 130, 500])
+@pytest.mark.parametrize("mixed", [False, True])
+def test_draws_into_a_box_are_the_draws_then_the_projection(k, mixed):
+    """draw_box, whole or in threads' parts, gives the values of draw_normals then the box
+    projection, the horizon sums included."""
+    agent = make_controller("mppi", agent="unicycle").agent  # two controls, box bounds
+    rng = np.random.default_rng(3)
+    U0 = rng.uniform(agent.lower, agent.upper, (7, 2))
+    scale, add = np.array([0.6, 1.5]), (rng.normal(size=(2, k)) if mixed else None)
+    eps = draw_normals(8, 4, (7, 2, k), scale, add)
+    want = project_perturbed(agent, U0, eps, sums=True)
+    assert 0 < (want[0] == agent.upper[1]).mean() < 0.5  # some controls are bounded
+    for cols in (None, *parts(k, 2)):
+        u, e, sums = np.zeros((7, 2, k)), np.zeros((7, 2, k)), np.zeros((2, k))
+        draw_box(8, 4, scale, add, U0, agent.lower, agent.upper, u, e, sums, cols)
+        j = slice(*(cols or (0, k)))
+        for got, ref in zip((u, e, sums), want, strict=True):
+            assert np.array_equal(got[..., j], ref[..., j])
+    u, e = np.empty((7, 2, k)), np.empty((7, 2, k))
+    draw_box(8, 4, scale, add, U0, agent.lower, agent.upper, u, e, NO_SUMS)
+    assert np.array_equal(u, want[0]) and np.array_equal(e, want[1])
+
+
+@pytest.mark.parametrize("perturbation", ["time_varying", "mixed"])
+def test_a_step_drawn_in_its_pass_equals_sample_then_controls(perturbation):
+    """perturbed_rollouts without eps (draws made in the projection's pass) equals it with the
+    step's sample(): the same draw numbers, values and outputs, on one thread and two."""
+    for threads in (1, 2):
+        runs = []
+        for given in (False, True):
+            ctrl = make_controller(
+                "mppi", agent="unicycle", K=200, N=12, seed=4, perturbation=perturbation,
+                threads=threads,
+            )  # fmt: skip
+            ctrl.act(np.zeros(3), np.array([5.0, 1.0]))
+            eps = ctrl.sample() if given else None
+            runs.append(ctrl.perturbed_rollouts(np.zeros(3), eps, sums=True) + (ctrl._draws,))
+        for a, b in zip(*runs, strict=True):
+            assert np.array_equal(a, b)

@@ -362,10 +362,11 @@ def cmd_replay(args) -> int:
 
 
 def cmd_outcomes(args) -> int:
-    from dcmppi.bench.outcomes import compare, table
+    from dcmppi.bench.outcomes import compare, joint, table
 
     comparisons = compare(args.old, args.new)
     print(table(comparisons))
+    print(f"\n{joint(comparisons)}")
     failing = [f"{c.label} ({c.noise})" for c in comparisons if not c.holds]
     if failing:
         print(f"\nthe outcomes differ beyond chance: {', '.join(failing)}", file=sys.stderr)

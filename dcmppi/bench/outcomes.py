@@ -6,6 +6,9 @@ the collisions of the old and the new code are paired by environment (the same s
 - McNemar's exact test on the discordant environments gives p > 0.05, and
 - each collision rate lies inside the other's 95 % Wilson interval.
 Failures of any kind (collision, time limit, leaving the map) are shown beside, the same way.
+Beside the rule, `joint` tests all rows at once (Holm's step-down over the McNemar p-values,
+5 % family-wise): one change of draws fails some row's own test by chance far more often than
+5 % when there are many rows (docs/performance.md, "Outcomes after e755496").
 """
 
 from __future__ import annotations
@@ -115,3 +118,21 @@ def table(comparisons: list[Comparison]) -> str:
             f"{c.new_failures} | {'holds' if c.holds else 'FAILS'} |"
         )
     return "\n".join(lines)
+
+
+def joint(comparisons: list[Comparison]) -> str:
+    """One line: do all rows hold together under Holm's step-down over their McNemar p-values
+    (family-wise error ALPHA)? The rows that Holm rejects are named."""
+    m = len(comparisons)
+    ranked = sorted(comparisons, key=lambda c: c.p)
+    rejected = []
+    for i, c in enumerate(ranked):
+        if c.p > ALPHA / (m - i):
+            break
+        rejected.append(f"{c.label} ({c.noise}, p = {c.p:.3g})")
+    head = f"joint test over {m} rows (Holm, McNemar, {ALPHA:.0%} family-wise): "
+    if rejected:
+        return head + "differ: " + ", ".join(rejected)
+    return (
+        head + f"the same within chance (smallest p = {ranked[0].p:.3g}, threshold {ALPHA / m:.3g})"
+    )

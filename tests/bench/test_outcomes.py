@@ -3,7 +3,7 @@
 import pytest
 
 from dcmppi.bench.experiments import load_experiment
-from dcmppi.bench.outcomes import compare, table
+from dcmppi.bench.outcomes import Comparison, compare, joint, table
 from dcmppi.bench.results import ResultsDB
 from dcmppi.bench.runner import EpisodeSpec
 from dcmppi.cli import main
@@ -42,7 +42,29 @@ def test_more_collisions_fail_the_rule(tmp_path, capsys):
     (c,) = compare(old, new)
     assert (c.only_old, c.only_new) == (0, 15) and c.p < 0.001 and not c.inside and not c.holds
     assert main(["outcomes", "--old", str(old), "--new", str(new)]) == 1
-    assert "differ beyond chance: mppi (none)" in capsys.readouterr().err
+    out = capsys.readouterr()
+    assert "differ beyond chance: mppi (none)" in out.err
+    assert "joint test over 1 rows (Holm, McNemar, 5% family-wise): differ: mppi (none" in out.out
+
+
+def _row(label, p):
+    return Comparison("none", label, 300, 10, 12, 4, 6, p, 10, 12)
+
+
+def test_the_joint_test_steps_down_over_the_rows():
+    """Holm: p_(i) <= 0.05 / (m - i + 1) in turn; the first that is not stops it."""
+    # one row's own test fails (0.02 < 0.05), the six rows together do not (0.02 > 0.05 / 6)
+    rows = [_row(name, p) for name, p in zip("abcdef", (0.3, 0.02, 0.5, 1, 1, 1), strict=True)]
+    assert not rows[1].holds
+    assert joint(rows).endswith("the same within chance (smallest p = 0.02, threshold 0.00833)")
+    # 0.001 <= 0.05 / 3, 0.02 <= 0.05 / 2 and 0.04 <= 0.05 / 1: all three differ ...
+    rows = [_row("a", 0.02), _row("b", 0.001), _row("c", 0.04)]
+    assert joint(rows).endswith(
+        "differ: b (none, p = 0.001), a (none, p = 0.02), c (none, p = 0.04)"
+    )
+    # ... but 0.03 > 0.05 / 2 stops the step-down: 0.04 is not rejected either
+    rows = [_row("a", 0.03), _row("b", 0.001), _row("c", 0.04)]
+    assert joint(rows).endswith("differ: b (none, p = 0.001)")
 
 
 def test_other_seeds_or_experiments_are_refused(tmp_path):

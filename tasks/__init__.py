@@ -11,11 +11,14 @@ process-noise stds `process_velocity_std` and `process_yaw_rate_std`, `time_limi
 plus its own kwargs; tasks with pedestrians (`crowd`, `corridor`, `square`) take `behavior`
 (one of pedestrians.BEHAVIORS) and `robot_visible`.
 
-What lives here: `worlds` (the worlds as plain numpy: generators, obstacle motion, walls,
-clearance, the map, crowd and pedestrian numbers), `pedestrians` (walkers: social force, ORCA,
-...), `navigation` (the plant `Physics` and the task `Navigation`: physics timestep, goal
-tolerance, noise profiles), one module per task family (`forest`, `crowd`, `corridor`,
-`square`, `two_valley`, `layout`), `robots` (agent -> actuators), `barn` (BARN's score).
+What lives here, the worlds as plain numpy: `world_base` (the `World` contract, the map,
+clearance, impossible worlds), `sampling` (starts, goals, discs), `worlds` (the forest and the
+crowd), `pedestrian_worlds` (the corridor, the square, walls), `arcs` (the crowd's Dubins
+motion), `pedestrians` (walkers: social force, ORCA, ...); in MuJoCo: `physics` (the plant
+`Physics`: obstacle slots, contacts, clearance), `navigation` (the task `Navigation` and
+`PedestrianNavigation`: physics timestep, noise profiles, termination), `checks` (task kwargs),
+one module per task family (`forest`, `crowd`, `corridor`, `square`, `two_valley`, `layout`),
+`robots` (agent -> actuators), `barn` (BARN's score).
 
 May import MuJoCo, dm_control, numpy, navground and, of the rest of dcmppi, only the robot
 models dcmppi.control.agents (with dcmppi.control.dynamics, their motion), the social force
@@ -39,7 +42,8 @@ from .corridor import Corridor  # noqa: E402
 from .crowd import Crowd  # noqa: E402
 from .forest import Forest  # noqa: E402
 from .layout import Layout  # noqa: E402
-from .navigation import NOISE_PROFILES, Navigation, Physics, make_environment  # noqa: E402
+from .navigation import NOISE_PROFILES, Navigation, make_environment  # noqa: E402
+from .physics import Physics  # noqa: E402
 from .square import Square  # noqa: E402
 from .two_valley import Blocked, Crossing  # noqa: E402
 

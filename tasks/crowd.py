@@ -2,17 +2,20 @@
 
 from dcmppi.control.validation import positive
 
-from . import navigation, pedestrians, worlds
+from . import pedestrians, worlds
+from .checks import check_behavior, check_flag, check_range
+from .navigation import Navigation
+from .world_base import BEHAVIOR_CONSTANT, OBSTACLE_SPEED_RANGE, OBSTACLE_TURN_RATE_RANGE
 
 
-class Crowd(navigation.Navigation):
+class Crowd(Navigation):
     """Moving cylinders with uniform random speeds and turn rates, reflecting off the walls.
 
     The observation's `obstacle_model` is the Gaussian with the uniforms' mean and std. The
     robot is the velocity-controlled `holonomic` agent by default (paper Sec. IV-B); with
     agent="dubins" the crowd is the hard variant (a constant-speed car cannot stop).
 
-    `behavior`: "constant" (default) moves them on Dubins arcs (`worlds.DubinsObstacles`);
+    `behavior`: "constant" (default) moves them on Dubins arcs (`arcs.DubinsObstacles`);
     any other of pedestrians.BEHAVIORS makes them pedestrians that walk to uniform random
     goals in the map (a new one on arrival) at preferred speeds drawn from `speed_range`
     (`worlds.generate_crowd`), reacting to the robot if `robot_visible`.
@@ -23,20 +26,20 @@ class Crowd(navigation.Navigation):
     def __init__(
         self,
         n_obstacles=worlds.CROWD_SIZE,
-        speed_range=worlds.OBSTACLE_SPEED_RANGE,
-        turn_rate_range=worlds.OBSTACLE_TURN_RATE_RANGE,
+        speed_range=OBSTACLE_SPEED_RANGE,
+        turn_rate_range=OBSTACLE_TURN_RATE_RANGE,
         obstacle_radius=worlds.MOVING_OBSTACLE_RADIUS,
-        behavior=worlds.BEHAVIOR_CONSTANT,
+        behavior=BEHAVIOR_CONSTANT,
         robot_visible=False,
         **kwargs,
     ):
         n_obstacles = positive("n_obstacles", n_obstacles, integer=True, allow_zero=True)
-        self.behavior = navigation.check_behavior(behavior, pedestrians.BEHAVIORS)
-        self.robot_visible = navigation.check_flag("robot_visible", robot_visible)
+        self.behavior = check_behavior(behavior, pedestrians.BEHAVIORS)
+        self.robot_visible = check_flag("robot_visible", robot_visible)
         super().__init__(**kwargs)
-        walking = behavior != worlds.BEHAVIOR_CONSTANT  # pedestrians need a speed > 0
-        self.speed_range = navigation.check_range("speed_range", speed_range, 0.0, walking)
-        self.turn_rate_range = navigation.check_range("turn_rate_range", turn_rate_range)
+        walking = behavior != BEHAVIOR_CONSTANT  # pedestrians need a speed > 0
+        self.speed_range = check_range("speed_range", speed_range, 0.0, walking)
+        self.turn_rate_range = check_range("turn_rate_range", turn_rate_range)
         self.obstacle_radius = positive("obstacle_radius", obstacle_radius)
         self.num_moving = n_obstacles
 

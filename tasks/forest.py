@@ -2,10 +2,11 @@
 
 from dcmppi.control.validation import positive
 
-from . import navigation, worlds
+from . import worlds
+from .navigation import Navigation
 
 
-class Forest(navigation.Navigation):
+class Forest(Navigation):
     """75 x 50 m map of cylinder clusters; random start and goal >= 30 m apart.
 
     `n_clusters` is the density: each cluster is 1-4 overlapping cylinders of radii 0.4-1.6 m

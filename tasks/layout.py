@@ -9,7 +9,7 @@ mark, as Excel writes, is skipped); coordinates and radii are at most MAX_COORDI
 
 A layout no controller could drive is refused when the task is built, naming the file and line
 of the cause: a start or goal outside the map, a robot touching a cylinder at its start, a goal
-inside a cylinder (`worlds.impossible`).
+inside a cylinder (`world_base.impossible`).
 
 BARN (Perille et al. 2020, MIT licence): pass world=N (0-299). Start, goal and time limit then
 default to the challenge's protocol (BARN_START, BARN_GOAL, BARN_TIME_LIMIT) and the task gives
@@ -27,7 +27,9 @@ import pathlib
 
 import numpy as np
 
-from . import barn, navigation, worlds
+from . import barn
+from .navigation import Navigation
+from .world_base import MAX_COORDINATE, impossible, make_world
 
 BARN_START = (-2.25, 3.0, math.pi / 2)
 BARN_GOAL = (-2.25, 13.0)
@@ -35,7 +37,6 @@ BARN_TIME_LIMIT = 100.0
 BARN_TOP_SPEED = 2.0  # [m/s] Clearpath Jackal; the challenge's optimal_time = length / 2 m/s
 BARN_ENV = "DCMPPI_BARN"  # environment variable naming the BARN file
 BOUNDS_MARGIN = 2.0  # [m] added around cylinders, start and goal when no bounds are given
-MAX_COORDINATE = worlds.MAX_COORDINATE  # [m]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -229,7 +230,7 @@ def _numbers(value, size):
     )
 
 
-class Layout(navigation.Navigation):
+class Layout(Navigation):
     """A fixed world read from a layout file (the same world every episode; noise still random).
 
     Args:
@@ -273,7 +274,7 @@ class Layout(navigation.Navigation):
             )
         if self._time_limit is None:
             self._time_limit = layout.time_limit or (BARN_TIME_LIMIT if is_barn else None)
-        self._world = worlds.make_world(start, goal, static=layout.cylinders, bounds=bounds)
+        self._world = make_world(start, goal, static=layout.cylinders, bounds=bounds)
         _check_possible(self._world, self.robot_radius, path, layout, origin)
         self.num_static = len(self._world.static)
         self._bounds = bounds
@@ -329,8 +330,9 @@ def _pick(name, size, origin, given, file, default):
 
 def _check_possible(world, robot_radius, path, layout, origin):
     """ValueError naming the file and line of the cause if no controller could drive `world`
-    (`worlds.impossible`): the cylinder's line, else where the start, goal or bounds came from."""
-    problem = worlds.impossible(world, robot_radius)
+    (`world_base.impossible`): the cylinder's line, else where the start, goal or bounds came
+    from."""
+    problem = impossible(world, robot_radius)
     if problem is None:
         return
     reason, row = problem

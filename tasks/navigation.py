@@ -1,24 +1,14 @@
-"""The shared plant and task of every benchmark world: a robot among cylinders.
+"""The shared task of every benchmark world: drive a robot among cylinders to its goal.
 
-`Physics` owns the MuJoCo model (models/arena.xml with one robot of models/robots/ and a fixed
-number of obstacle slots), moves the moving obstacles every physics substep (Dubins arcs for the
-"constant" behaviour, else `pedestrians.Pedestrians`), and records robot-obstacle contacts and
-the analytic clearance; walls are rows of static cylinders (worlds.wall_cylinders).
-`Navigation` is the dm_control task: it draws a `worlds.World` per episode, maps the agent's
-controls to the actuators, injects noise, and ends the episode at the goal, on a collision,
-when the robot leaves the map, or at the time limit. Subclasses only say how a world is drawn.
+`Navigation` is the dm_control task: it draws a `world_base.World` per episode, maps the
+agent's controls to the actuators of the plant (physics.Physics), injects noise, and ends the
+episode at the goal, on a collision, when the robot leaves the map, or at the time limit.
+Subclasses only say how a world is drawn; `PedestrianNavigation` is the corridor's and the square's.
 """
 
 import collections
-import copy
-import functools
-import math
-from importlib import resources
 
-import mujoco
 import numpy as np
-from dm_control import mujoco as dm_mujoco
-from dm_control.mujoco.wrapper import core
 from dm_control.rl import control
 from dm_env import specs
 
@@ -27,383 +17,27 @@ from dcmppi.control.agents import make_agent
 from dcmppi.control.agents.projection import bound
 from dcmppi.control.validation import positive
 
-from . import pedestrians, robots, worlds
+from . import pedestrians, robots
+from .checks import check_behavior, check_flag
+from .physics import Physics
+from .sampling import random_points
+from .world_base import (
+    BEHAVIOR_CONSTANT,
+    GOAL_TOLERANCE,
+    World,
+    default_time_limit,
+    impossible,
+)
+from .world_base import map_bounds as map_bounds_of
 
 PHYSICS_TIMESTEP = 0.01  # [s] MuJoCo timestep: 10 substeps per control step (defaults.DT)
-GOAL_TOLERANCE = 1.0  # [m] the goal is reached within this distance
 # Noise profiles of the experiments (docs/design.md, Experiments).
 NOISE_PROFILES = ("none", "control", "process")
 CONTROL_NOISE = 0.1  # variance of the control noise on every control, in its own units (paper)
 PROCESS_VELOCITY_STD = 0.1  # [m/s] std of the planar velocity disturbance, per axis
 PROCESS_YAW_RATE_STD = 0.1  # [rad/s] std of the yaw-rate disturbance
-OBSTACLE_HALF_HEIGHT = 0.5  # [m]
-PARKED = -1000.0  # [m] x, y of unused static slots (also disabled and hidden)
 MEASUREMENT_STREAM = 1  # spawn key of the measurement-noise stream under the noise seed
-_HIDDEN_GROUP = 3  # geom group that MuJoCo's renderer hides by default
 PEDESTRIAN_TIME_FACTOR = 5.0  # pedestrian tasks: time limit / time to drive the map's longer side
-
-
-ROBOT_PREFIX = "robot/"  # names of the attached robot file's elements get this prefix
-ROBOT_FILE_RADIUS = 0.5  # [m] hull radius the robot files are drawn at
-
-
-@functools.lru_cache(maxsize=32)
-def _compiled_model(robot_file, num_static, num_moving, robot_radius) -> mujoco.MjModel:
-    """The arena with the robot of `robot_file`, num_static world-geom slots and num_moving
-    mocap-body slots."""
-    models = resources.files("dcmppi.models")
-    spec = mujoco.MjSpec.from_string(models.joinpath("arena.xml").read_text())
-    robot = mujoco.MjSpec.from_string(models.joinpath("robots", robot_file).read_text())
-    scale = robot_radius / ROBOT_FILE_RADIUS
-    for geom in robot.geoms:  # drawn geoms follow the hull's radius
-        geom.pos = np.asarray(geom.pos) * scale
-        geom.size = np.asarray(geom.size) * (scale if geom.name != "hull" else 1.0)
-    robot.geom("hull").size[0] = robot_radius
-    spec.attach(robot, prefix=ROBOT_PREFIX, frame=spec.worldbody.add_frame())
-    static_class = spec.find_default("static_obstacle")
-    for i in range(num_static):
-        spec.worldbody.add_geom(
-            static_class, name=f"static_{i}", pos=[PARKED, PARKED, OBSTACLE_HALF_HEIGHT]
-        )
-    moving_class, heading_class = (
-        spec.find_default("moving_obstacle"),
-        spec.find_default("moving_heading"),
-    )
-    for i in range(num_moving):
-        body = spec.worldbody.add_body(
-            name=f"moving_{i}", mocap=True, pos=[PARKED, PARKED, OBSTACLE_HALF_HEIGHT]
-        )
-        body.add_geom(moving_class, name=f"moving_{i}")
-        body.add_geom(
-            heading_class, name=f"moving_heading_{i}", pos=[0.5, 0.0, OBSTACLE_HALF_HEIGHT + 0.02]
-        )
-    return spec.compile()
-
-
-def _set_cylinders(model, ids, radius, half_height=OBSTACLE_HALF_HEIGHT):
-    """Sets cylinder sizes and the bounding volumes MuJoCo's collision broadphase uses."""
-    model.geom_size[ids, 0] = radius
-    model.geom_size[ids, 1] = half_height
-    model.geom_rbound[ids] = np.hypot(radius, half_height)
-    model.geom_aabb[ids, :3] = 0.0
-    model.geom_aabb[ids, 3] = radius
-    model.geom_aabb[ids, 4] = radius
-    model.geom_aabb[ids, 5] = half_height
-
-
-class Physics(dm_mujoco.Physics):
-    """Physics with obstacle slots, moving obstacles and contact/clearance bookkeeping.
-
-    Only obstacles that the robot could reach within the coming control step take part in
-    MuJoCo's collision detection (their conaffinity is switched on at the start of each
-    `step`); the rest are skipped, which keeps a step cheap with hundreds of obstacles.
-    """
-
-    @classmethod
-    def for_slots(
-        cls, num_static, num_moving, bounds, robot_radius=defaults.ROBOT_RADIUS, robot="dubins.xml"
-    ):
-        """A new Physics with the robot of file `robot`, fixed obstacle slots, and the top
-        camera and floor fitted to bounds."""
-        model = copy.copy(_compiled_model(robot, num_static, num_moving, float(robot_radius)))
-        physics = cls.from_model(core.MjModel(model))
-        physics._bind(num_static, num_moving, float(robot_radius))
-        physics._fit_view(np.asarray(bounds, dtype=np.float64))
-        return physics
-
-    def _bind(self, num_static, num_moving, robot_radius):
-        m, d = self.model.ptr, self.data.ptr
-        self._m, self._d = m, d
-        self.robot_radius = robot_radius
-        self._robot_geom = m.geom(ROBOT_PREFIX + "hull").id
-        first = m.geom("static_0").id if num_static else 0
-        self._static_ids = np.arange(first, first + num_static)
-        self._moving_ids = np.array([m.geom(f"moving_{i}").id for i in range(num_moving)], int)
-        self._moving_bodies = np.array([m.body(f"moving_{i}").id for i in range(num_moving)], int)
-        mocap = m.body_mocapid[self._moving_bodies]
-        if num_moving and not (np.diff(mocap) == 1).all():
-            raise RuntimeError("moving obstacle mocap slots are not contiguous")
-        self._mocap = slice(mocap[0], mocap[-1] + 1) if num_moving else slice(0, 0)
-        self._qpos, self._qvel, self._ctrl = d.qpos, d.qvel, d.ctrl
-        self._qfrc_applied = d.qfrc_applied
-        self._opt = m.opt
-        self._geom_conaffinity, self._body_conaffinity = m.geom_conaffinity, m.body_conaffinity
-        self._gain = m.actuator_gainprm[:, 0].copy()  # kv of the planar and turn actuators
-        self._mocap_xy = d.mocap_pos[self._mocap, :2]
-        self._mocap_quat = d.mocap_quat[self._mocap]
-        self._moving = None
-        self._walking = False  # the moving obstacles are pedestrians.Pedestrians
-        self.control_period = defaults.DT  # [s] make_environment sets the environment's
-        self._moving_obs = np.zeros((num_moving, 4))
-        self._solid = np.zeros((0, 3))
-        self._solid_ids = self._static_ids[:0]
-        self._solid_z = np.zeros(0, dtype=np.complex128)
-        self._solid_r = np.zeros(0)
-        self._near = None  # conaffinity bytes of the solid and moving slots, last written
-        self._speed_bound = 0.0
-        self.collided = False
-        self.first_contact = None
-        self.min_clearance = np.inf
-        self._clearance = np.inf
-        self._static_clearance = np.zeros(0)
-        self._moving_clearance = np.zeros(num_moving)
-
-    def _fit_view(self, bounds):
-        """Centres floor and top camera on the map; camera height shows it all at 16:9."""
-        m = self._m
-        centre = 0.5 * (bounds[:2] + bounds[2:])
-        extent = bounds[2:] - bounds[:2] + 4.0
-        floor = m.geom("floor").id
-        m.geom_pos[floor, :2] = centre
-        m.geom_size[floor, :2] = 0.5 * extent + 20.0
-        cam = m.camera("top").id
-        half = np.tan(np.deg2rad(m.cam_fovy[cam]) / 2.0)
-        m.cam_pos[cam] = [*centre, max(extent[1], extent[0] * 9.0 / 16.0) / (2.0 * half)]
-
-    # Episode set-up -------------------------------------------------------------------------
-
-    def set_world(
-        self, world: worlds.World, velocity, command, top_speed, next_goal=None, random=None
-    ):
-        """Places robot, goal and obstacles of `world`; clears the records.
-
-        velocity: the robot's world-frame (vx, vy, yaw rate) at the start; command: the three
-        actuator targets at the start; top_speed: the robot's fastest planar speed [m/s].
-        Pedestrian worlds (behavior not "constant") also need next_goal(random, i, position)
-        and random (np.random.RandomState), see `pedestrians.Pedestrians`."""
-        m = self._m
-        static = world.static
-        solid = static[:, 2] > 0
-        ids = self._static_ids
-        m.geom_pos[ids, :2] = np.where(solid[:, None], static[:, :2], PARKED)
-        _set_cylinders(m, ids, np.where(solid, static[:, 2], 1.0))
-        m.geom_conaffinity[ids] = 0
-        m.geom_group[ids] = np.where(solid, 0, _HIDDEN_GROUP)
-        self._solid = static[solid]
-        self._solid_ids = ids[solid]
-        self._solid_z = self._solid[:, 0] + 1j * self._solid[:, 1]
-        self._solid_r = self._solid[:, 2].copy()
-
-        goal = m.geom("goal").id
-        m.geom_pos[goal, :2] = world.goal
-        m.geom_size[goal, 0] = GOAL_TOLERANCE
-
-        moving = world.moving
-        self._moving_obs[:, 3] = moving[:, 3]
-        _set_cylinders(m, self._moving_ids, moving[:, 3])
-        m.geom_conaffinity[self._moving_ids] = 0
-        m.body_conaffinity[self._moving_bodies] = 0
-        self._near = None
-        self._walking = len(moving) > 0 and world.behavior != worlds.BEHAVIOR_CONSTANT
-        obstacle_speed = 0.0
-        if self._walking:
-            heading = np.column_stack([np.cos(moving[:, 2]), np.sin(moving[:, 2])])
-            # They walk in the map and along its walls (the corridor's reach past its ends).
-            corners = np.concatenate([world.map_bounds.reshape(2, 2), world.walls.reshape(-1, 2)])
-            self._moving = pedestrians.Pedestrians(
-                world.behavior,
-                moving[:, :2],
-                world.moving_speed[:, None] * heading,
-                world.moving_goal,
-                world.moving_pref_speed,
-                moving[:, 3],
-                world.walls,
-                [*corners.min(axis=0), *corners.max(axis=0)],
-                self.robot_radius,
-                world.robot_visible,
-                next_goal,
-                random,
-                self.control_period,
-            )
-            obstacle_speed = pedestrians.MAX_SPEED_FACTOR * world.moving_pref_speed.max()
-        elif len(moving):
-            self._moving = worlds.DubinsObstacles(
-                moving[:, :3],
-                world.moving_speed,
-                world.moving_turn_rate,
-                world.map_bounds,
-                self.timestep(),
-            )
-            obstacle_speed = np.abs(world.moving_speed).max()
-        else:
-            self._moving = None
-        if len(moving):
-            self._mocap_xy[:] = moving[:, :2]
-            self._set_mocap_heading(moving[:, 2])
-        # Fastest closing speed robot-obstacle, with room for disturbances [m/s].
-        self._speed_bound = 2.0 * top_speed + 1.0 + obstacle_speed
-
-        x, y, _ = world.start
-        self._qpos[:3] = world.start
-        self._qvel[:3] = velocity
-        self._ctrl[:] = command
-        self._qfrc_applied[:] = 0.0
-        self.collided = False
-        self.first_contact = None
-        moving_z = (moving[:, 0] + 1j * moving[:, 1])[None] if len(moving) else None
-        self._clearance = self._update_clearance(np.array([complex(x, y)]), moving_z)[0]
-        self.min_clearance = self._clearance
-
-    def _set_mocap_heading(self, heading):
-        self._mocap_quat[:, 0] = np.cos(0.5 * heading)
-        self._mocap_quat[:, 3] = np.sin(0.5 * heading)
-
-    # Control --------------------------------------------------------------------------------
-
-    def set_command(self, command):
-        """The three actuator targets (see tasks/robots.py)."""
-        self._ctrl[:] = command
-
-    def set_disturbance(self, velocity):
-        """Holds generalized forces that offset the robot's (vx, vy, yaw rate) by `velocity`.
-
-        Each force is gain x velocity, so against the velocity actuators the robot settles
-        (after the actuator lag) at the commanded velocity plus `velocity`.
-        """
-        self._qfrc_applied[:3] = self._gain * velocity
-
-    # Simulation -----------------------------------------------------------------------------
-
-    def step(self, nstep=1):
-        """Advances nstep physics steps, moving the obstacles and recording contacts each one.
-
-        Every substep integrates (mj_step2), moves the mocap obstacles to the new time, then
-        recomputes positions and contacts (mj_step1), so contacts always compare robot and
-        obstacles at the same instant. Pedestrians plan the whole step from the robot's position
-        and velocity at its start.
-        """
-        m, d = self._m, self._d
-        moving = moving_xy = None
-        if self._walking:
-            robot_xy = self._qpos[:2].copy()
-            moving = self._moving.advance(nstep, robot_xy, self._qvel[:2].copy())
-            # one that reached its goal may reappear elsewhere: its clearance from there
-            self._moving_clearance = (
-                np.abs(moving[0] - complex(*robot_xy)) - self._moving_obs[:, 3] - self.robot_radius
-            )
-        elif self._moving is not None:
-            moving = self._moving.advance(nstep)
-        self._activate_near(nstep * self._opt.timestep)
-        if moving is not None:
-            moving_xy = np.stack([moving.real, moving.imag], axis=-1)
-        robot = np.empty((nstep, 2))  # x, y after each substep
-        qpos, mocap_xy, step1, step2 = self._qpos, self._mocap_xy, mujoco.mj_step1, mujoco.mj_step2
-        # dm_control's check_invalid_state, without a context manager per step
-        warnings = self._warnings.tobytes()
-        for k in range(nstep):
-            step2(m, d)
-            if moving_xy is not None:
-                mocap_xy[:] = moving_xy[k]
-            step1(m, d)
-            robot[k, 0] = qpos[0]
-            robot[k, 1] = qpos[1]
-            if d.ncon and not self.collided:
-                self._record_contact()
-        if self._warnings.tobytes() != warnings:
-            self._raise_warnings(np.frombuffer(warnings, self._warnings.dtype))
-        if moving is not None:
-            self._set_mocap_heading(self._moving.theta)
-        clearance = self._update_clearance(robot.view(np.complex128)[:, 0], moving)
-        self._clearance = clearance[-1]
-        self.min_clearance = min(self.min_clearance, clearance.min())
-
-    def _raise_warnings(self, before):
-        """dm_control's PhysicsError (or its log line under suppress_physics_errors) for the
-        MuJoCo warnings counted since `before` (mjNWARNING,)."""
-        with self.check_invalid_state():
-            self._warnings_before[:] = before
-
-    def _activate_near(self, duration):
-        """Enables collisions with the obstacles the robot could touch within `duration`
-        (writes the model only when that set changed)."""
-        reach = 0.5 + self._speed_bound * duration
-        static = self._static_clearance < reach
-        moving = self._moving_clearance < reach if len(self._moving_ids) else static[:0]
-        near = static.tobytes() + moving.tobytes()
-        if near != self._near:
-            self._near = near
-            self._geom_conaffinity[self._solid_ids] = static
-            if len(self._moving_ids):
-                self._geom_conaffinity[self._moving_ids] = moving
-                self._body_conaffinity[self._moving_bodies] = moving
-
-    def _record_contact(self):
-        d = self._d
-        self.collided = True
-        a, b = d.contact.geom[0]
-        self.first_contact = dict(
-            time=float(d.time),
-            robot_xy=self._qpos[:2].copy(),
-            geom=self._m.geom(int(b if a == self._robot_geom else a)).name,
-            distance=float(d.contact.dist[0]),
-        )
-
-    def _update_clearance(self, robot, moving):
-        """Minimum clearance (n,) at robot centres (n,) complex, obstacles moving (n, L) complex.
-
-        Also keeps each obstacle's clearance at the last centre for `_activate_near`.
-        """
-        radius = self.robot_radius
-        clearance = None
-        if len(self._solid_r):
-            each = np.abs(robot[:, None] - self._solid_z)
-            each -= self._solid_r
-            self._static_clearance = each[-1] - radius
-            clearance = each.min(axis=1)
-        else:
-            self._static_clearance = self._solid_r
-        if moving is not None:
-            each = np.abs(moving - robot[:, None])
-            each -= self._moving_obs[:, 3]
-            self._moving_clearance = each[-1] - radius
-            nearest = each.min(axis=1)
-            clearance = nearest if clearance is None else np.minimum(clearance, nearest)
-        if clearance is None:
-            return np.full(len(robot), np.inf)
-        clearance -= radius
-        return clearance
-
-    # Readouts -------------------------------------------------------------------------------
-
-    @property
-    def obstacle_motion(self):
-        """The moving obstacles' own model (pedestrians.Pedestrians or worlds.DubinsObstacles;
-        None without any). Its `advance` moves them without the physics: where they ignore
-        the robot, stepping it alone gives the episode's future of them."""
-        return self._moving
-
-    def robot_pose(self):
-        """(3,) x, y, yaw of the robot, yaw wrapped to [-pi, pi)."""
-        pose = self._qpos[:3].copy()
-        pose[2] = (pose[2] + math.pi) % (2.0 * math.pi) - math.pi
-        return pose
-
-    def robot_position(self):
-        """x, y of the robot (floats)."""
-        return self._qpos[0].item(), self._qpos[1].item()
-
-    def robot_velocity(self):
-        """(3,) world-frame vx, vy and yaw rate."""
-        return self._qvel[:3].copy()
-
-    def moving_obstacles(self):
-        """(L, 4) x, y, heading, radius of the moving obstacles now."""
-        obs = self._moving_obs.copy()
-        if self._moving is not None:
-            obs[:, 0] = self._moving.z.real
-            obs[:, 1] = self._moving.z.imag
-            obs[:, 2] = self._moving.theta
-        return obs
-
-    def moving_velocity(self):
-        """(L, 2) world-frame velocities of the moving obstacles now."""
-        if self._moving is None:
-            return np.zeros((len(self._moving_obs), 2))
-        return np.array(self._moving.velocity, dtype=np.float64)
-
-    def clearance(self):
-        """Minimum robot-obstacle surface distance now [m] (inf without obstacles)."""
-        return self._clearance
 
 
 # A dm_control.rl.control.Task, not dm_control.suite's base.Task: importing dm_control.suite
@@ -486,7 +120,7 @@ class Navigation(control.Task):
     num_static = 1  # static slots (fixed per instance)
     num_moving = 0  # moving slots (fixed per instance)
 
-    def generate_world(self, random) -> worlds.World:
+    def generate_world(self, random) -> World:
         """Draws this episode's world from `random` (a RandomState)."""
         raise NotImplementedError
 
@@ -495,12 +129,12 @@ class Navigation(control.Task):
         None keeping it where it is. This one draws a uniform point of the map at least its
         radius inside the edges from `random` (the episode's world RandomState)."""
         radius = self.world.moving[i, 3]
-        return None, worlds.random_points(random, 1, self.world.map_bounds, radius)[0]
+        return None, random_points(random, 1, self.world.map_bounds, radius)[0]
 
     @property
     def map_bounds(self) -> np.ndarray:
         """(4,) xmin, ymin, xmax, ymax of this instance's map."""
-        return worlds.map_bounds()
+        return map_bounds_of()
 
     @property
     def time_limit(self) -> float:
@@ -508,7 +142,7 @@ class Navigation(control.Task):
         agent's top speed."""
         if self._time_limit is not None:
             return self._time_limit
-        return worlds.default_time_limit(self.map_bounds, self.agent.max_speed)
+        return default_time_limit(self.map_bounds, self.agent.max_speed)
 
     @property
     def random(self) -> np.random.RandomState:
@@ -535,7 +169,7 @@ class Navigation(control.Task):
         world = self.generate_world(world_random)
         if world.static.shape != (self.num_static, 3) or world.moving.shape != (self.num_moving, 4):
             raise RuntimeError(f"{type(self).__name__} drew a world of the wrong size")
-        problem = worlds.impossible(world, self.robot_radius)
+        problem = impossible(world, self.robot_radius)
         if problem is not None:
             raise ValueError(
                 f"{type(self).__name__} drew an impossible world: {problem[0]}; change its task "
@@ -655,34 +289,6 @@ class Navigation(control.Task):
         )
 
 
-def check_behavior(behavior, valid):
-    """`behavior` if it is one of `valid` (names), else a ValueError listing them."""
-    if behavior not in valid:
-        raise ValueError(f"unknown behavior {behavior!r}; valid behaviors: {', '.join(valid)}")
-    return behavior
-
-
-def check_range(name, value, low=None, strict=False):
-    """`value` as a pair of floats (lo, hi) with lo <= hi and low <= lo (low < lo if strict),
-    else a ValueError naming `name`."""
-    try:
-        lo, hi = (float(x) for x in value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a pair (low, high), got {value!r}") from None
-    below = low is not None and (lo <= low if strict else lo < low)
-    if not lo <= hi or below:
-        bound = "" if low is None else f"{low} {'<' if strict else '<='} "
-        raise ValueError(f"{name} must satisfy {bound}low <= high, got {value!r}")
-    return lo, hi
-
-
-def check_flag(name, value):
-    """`value` if it is True or False, else a ValueError naming `name`."""
-    if not isinstance(value, (bool, np.bool_)):
-        raise ValueError(f"{name} must be true or false; got {value!r}")
-    return bool(value)
-
-
 class PedestrianNavigation(Navigation):
     """Navigation among pedestrians that walk to goals (the corridor and the square).
 
@@ -697,7 +303,7 @@ class PedestrianNavigation(Navigation):
 
     def __init__(self, n_pedestrians, pedestrian_radius, behavior, robot_visible, **kwargs):
         n_pedestrians = positive("n_pedestrians", n_pedestrians, integer=True, allow_zero=True)
-        walking = tuple(b for b in pedestrians.BEHAVIORS if b != worlds.BEHAVIOR_CONSTANT)
+        walking = tuple(b for b in pedestrians.BEHAVIORS if b != BEHAVIOR_CONSTANT)
         self.behavior = check_behavior(behavior, walking)
         self.robot_visible = check_flag("robot_visible", robot_visible)
         self.pedestrian_radius = positive("pedestrian_radius", pedestrian_radius)

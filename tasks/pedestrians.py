@@ -9,7 +9,7 @@ and a behaviour turns that into its velocity for the next control period:
                    ignores walls: worlds with walls refuse it)
     hl             navground's HL (Guzzi et al. 2013, a human-like heuristic)
 
-"constant" (BEHAVIORS' first) is today's Dubins arcs, worlds.DubinsObstacles, not this class.
+"constant" (BEHAVIORS' first) is today's Dubins arcs, arcs.DubinsObstacles, not this class.
 navground's behaviours get, each step, the other pedestrians within NEIGHBOR_RANGE (and the
 robot when visible) as neighbours, the walls as line obstacles and the desired velocity as their
 target; an omnidirectional kinematics caps their speed at MAX_SPEED_FACTOR x the preferred
@@ -80,7 +80,7 @@ class Pedestrians:
         if behavior not in BEHAVIORS[1:]:
             if behavior == BEHAVIORS[0]:
                 raise ValueError(
-                    "behavior 'constant' moves with worlds.DubinsObstacles, not Pedestrians"
+                    "behavior 'constant' moves with arcs.DubinsObstacles, not Pedestrians"
                 )
             raise ValueError(f"unknown behavior {behavior!r}; valid behaviors: {BEHAVIORS}")
         self.behavior = behavior
@@ -115,7 +115,7 @@ class Pedestrians:
 
     def advance(self, n, robot_xy, robot_velocity) -> np.ndarray:
         """Moves one control period in n substeps; returns the centres after each substep as
-        complex (n, L) (the same contract as worlds.DubinsObstacles.advance). robot_xy,
+        complex (n, L) (the same contract as arcs.DubinsObstacles.advance). robot_xy,
         robot_velocity (2,): the robot now (ignored unless robot_visible)."""
         if self._robot_visible:
             robot_xy = _point(robot_xy, "robot_xy")

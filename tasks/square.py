@@ -1,30 +1,33 @@
 """`square`: a robot crossing a square that pedestrians cross too (issue 24; C-Uniform's
 scene)."""
 
-from . import navigation, worlds
+from . import pedestrian_worlds
+from .checks import check_range
+from .navigation import PedestrianNavigation
+from .world_base import map_bounds
 
 SQUARE_V_MAX = 1.0  # [m/s] the holonomic robot's default top speed here (C-Uniform's scene)
 
 
-class Square(navigation.PedestrianNavigation):
+class Square(PedestrianNavigation):
     """8 x 8 m, open; the robot drives from 1 m inside one side to 1 m inside the opposite one.
 
     `n_pedestrians` walk between uniform random points of the square, a new goal on arrival,
-    at preferred speeds uniform in `speed_range` (`worlds.generate_square`); the observation's
-    `obstacle_model` is the Gaussian of those speeds with turn rates
-    N(0, worlds.PEDESTRIAN_TURN_RATE_STD^2). The robot is holonomic with v_max SQUARE_V_MAX
-    (slower than most pedestrians) and radius 0.3 m by default; see `PedestrianNavigation` for
-    `behavior` (default "orca"), `robot_visible` and the time limit.
+    at preferred speeds uniform in `speed_range` (`pedestrian_worlds.generate_square`); the
+    observation's `obstacle_model` is the Gaussian of those speeds with turn rates
+    N(0, pedestrian_worlds.PEDESTRIAN_TURN_RATE_STD^2). The robot is holonomic with v_max
+    SQUARE_V_MAX (slower than most pedestrians) and radius 0.3 m by default; see
+    `PedestrianNavigation` for `behavior` (default "orca"), `robot_visible` and the time limit.
     """
 
     def __init__(
         self,
-        n_pedestrians=worlds.SQUARE_PEDESTRIANS,
-        pedestrian_radius=worlds.PEDESTRIAN_RADIUS,
-        speed_range=worlds.SQUARE_SPEED_RANGE,
+        n_pedestrians=pedestrian_worlds.SQUARE_PEDESTRIANS,
+        pedestrian_radius=pedestrian_worlds.PEDESTRIAN_RADIUS,
+        speed_range=pedestrian_worlds.SQUARE_SPEED_RANGE,
         behavior="orca",
         robot_visible=False,
-        robot_radius=worlds.PEDESTRIAN_RADIUS,
+        robot_radius=pedestrian_worlds.PEDESTRIAN_RADIUS,
         **kwargs,
     ):
         if (kwargs.get("agent") or self.default_agent) == "holonomic":
@@ -37,14 +40,14 @@ class Square(navigation.PedestrianNavigation):
             robot_radius=robot_radius,
             **kwargs,
         )
-        self.speed_range = navigation.check_range("speed_range", speed_range, low=0.0, strict=True)
+        self.speed_range = check_range("speed_range", speed_range, low=0.0, strict=True)
 
     @property
     def map_bounds(self):
-        return worlds.map_bounds(worlds.SQUARE_SIZE)
+        return map_bounds(pedestrian_worlds.SQUARE_SIZE)
 
     def generate_world(self, random):
-        return worlds.generate_square(
+        return pedestrian_worlds.generate_square(
             random,
             self.num_moving,
             self.robot_radius,

@@ -7,9 +7,13 @@ rollout clustering is for.
 
 import numpy as np
 
+from dcmppi.control.dynamics import wrap_angle
 from dcmppi.control.validation import positive
 
-from . import navigation, worlds
+from .arcs import dubins_pose
+from .navigation import Navigation
+from .world_base import make_world, map_bounds
+from .worlds import MOVING_OBSTACLE_RADIUS
 
 
 def _line(distance, bounds):
@@ -19,7 +23,7 @@ def _line(distance, bounds):
     return start, start[:2] + [distance, 0.0]
 
 
-class Blocked(navigation.Navigation):
+class Blocked(Navigation):
     """A static cylinder of `obstacle_radius` halfway between start and goal.
 
     `lateral_jitter` > 0 shifts it sideways by U(-lateral_jitter, lateral_jitter) per episode.
@@ -32,15 +36,15 @@ class Blocked(navigation.Navigation):
         self.lateral_jitter = positive("lateral_jitter", lateral_jitter, allow_zero=True)
 
     def generate_world(self, random):
-        bounds = worlds.map_bounds()
+        bounds = map_bounds()
         start, goal = _line(self.distance, bounds)
         offset = random.uniform(-self.lateral_jitter, self.lateral_jitter)
         middle = 0.5 * (start[:2] + goal)
         static = np.array([[middle[0], middle[1] + offset, self.obstacle_radius]])
-        return worlds.make_world(start, goal, static=static, bounds=bounds)
+        return make_world(start, goal, static=static, bounds=bounds)
 
 
-class Crossing(navigation.Navigation):
+class Crossing(Navigation):
     """One moving cylinder that reaches the robot's straight path just when the robot does.
 
     If the robot drove straight at its top speed, the obstacle's centre would be on the robot's
@@ -56,7 +60,7 @@ class Crossing(navigation.Navigation):
         approach_angle=np.pi,
         obstacle_speed=1.0,
         obstacle_turn_rate=0.0,
-        obstacle_radius=worlds.MOVING_OBSTACLE_RADIUS,
+        obstacle_radius=MOVING_OBSTACLE_RADIUS,
         **kwargs,
     ):
         super().__init__(**kwargs)
@@ -71,18 +75,16 @@ class Crossing(navigation.Navigation):
         self.num_moving = 1
 
     def generate_world(self, random):
-        bounds = worlds.map_bounds()
+        bounds = map_bounds()
         start, goal = _line(self.distance, bounds)
         t_meet = self.meet_fraction * self.distance / self.agent.max_speed
         meet = [
             *(start[:2] + [self.meet_fraction * self.distance, 0.0]),
             start[2] + self.approach_angle,
         ]
-        x, y, heading = worlds.dubins_pose(
-            meet, self.obstacle_speed, self.obstacle_turn_rate, -t_meet
-        )
-        moving = np.array([[x, y, worlds.wrap_angle(heading), self.obstacle_radius]])
-        return worlds.make_world(
+        x, y, heading = dubins_pose(meet, self.obstacle_speed, self.obstacle_turn_rate, -t_meet)
+        moving = np.array([[x, y, wrap_angle(heading), self.obstacle_radius]])
+        return make_world(
             start,
             goal,
             moving=moving,

@@ -442,7 +442,7 @@ class Episode:
     def result(self) -> dict:
         """The metrics of the finished episode (see `run_episode`)."""
         from dcmppi.tasks.barn import navigation_score
-        from dcmppi.tasks.navigation import GOAL_TOLERANCE
+        from dcmppi.tasks.world_base import GOAL_TOLERANCE
 
         path = self.path
         outcome = self.env.task.outcome

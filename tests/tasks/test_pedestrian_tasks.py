@@ -4,18 +4,26 @@ import numpy as np
 import pytest
 
 from dcmppi import tasks
-from dcmppi.tasks import navigation, pedestrians, worlds
+from dcmppi.tasks import (
+    arcs,
+    navigation,
+    pedestrian_worlds,
+    pedestrians,
+    sampling,
+    world_base,
+    worlds,
+)
 
 GENERATORS = {
-    "corridor": worlds.generate_corridor,
-    "square": worlds.generate_square,
+    "corridor": pedestrian_worlds.generate_corridor,
+    "square": pedestrian_worlds.generate_square,
     "crowd": lambda random: worlds.generate_crowd(random, behavior="orca"),
 }
 
 
 def _surface_gaps(moving):
     """Surface gaps (L, L) between the cylinders moving (L, 4), inf on the diagonal."""
-    gaps = worlds.clearance(moving[:, :2], moving, 0.0) - moving[:, 3:4]
+    gaps = world_base.clearance(moving[:, :2], moving, 0.0) - moving[:, 3:4]
     np.fill_diagonal(gaps, np.inf)
     return gaps
 
@@ -29,36 +37,45 @@ def test_same_seed_same_world_other_seed_other_world(name):
 
 
 def test_corridor_walls_are_segments_and_rows_of_cylinders_with_their_faces_on_them():
-    world = worlds.generate_corridor(np.random.RandomState(0))
-    length, width = worlds.CORRIDOR_SIZE
+    world = pedestrian_worlds.generate_corridor(np.random.RandomState(0))
+    length, width = pedestrian_worlds.CORRIDOR_SIZE
     np.testing.assert_array_equal(world.map_bounds, [0.0, 0.0, length, width])
     walls = world.walls
     assert walls.shape == (2, 4)
     np.testing.assert_array_equal(np.sort(walls[:, [1, 3]], axis=None), [0, 0, width, width])
     assert (
         walls[:, [0, 2]].min()
-        < -worlds.CORRIDOR_END
-        < length + worlds.CORRIDOR_END
+        < -pedestrian_worlds.CORRIDOR_END
+        < length + pedestrian_worlds.CORRIDOR_END
         < walls[:, [0, 2]].max()
     )
     static = world.static
-    np.testing.assert_array_equal(static[:, 2], worlds.WALL_RADIUS)
-    for face, centre in ((0.0, -worlds.WALL_RADIUS), (width, width + worlds.WALL_RADIUS)):
+    np.testing.assert_array_equal(static[:, 2], pedestrian_worlds.WALL_RADIUS)
+    for face, centre in (
+        (0.0, -pedestrian_worlds.WALL_RADIUS),
+        (width, width + pedestrian_worlds.WALL_RADIUS),
+    ):
         row = static[np.isclose(static[:, 1], centre)]
         x = np.sort(row[:, 0])
-        assert len(row) > 200 and np.diff(x).max() <= worlds.WALL_SPACING + 1e-12
-        assert x[0] <= -worlds.CORRIDOR_END and x[-1] >= length + worlds.CORRIDOR_END
+        assert len(row) > 200 and np.diff(x).max() <= pedestrian_worlds.WALL_SPACING + 1e-12
+        assert (
+            x[0] <= -pedestrian_worlds.CORRIDOR_END
+            and x[-1] >= length + pedestrian_worlds.CORRIDOR_END
+        )
         # the row's inner face never reaches into the corridor
-        assert np.abs(row[:, 1] - face).min() == pytest.approx(worlds.WALL_RADIUS)
-    assert len(static) == len(worlds.wall_cylinders(walls))
+        assert np.abs(row[:, 1] - face).min() == pytest.approx(pedestrian_worlds.WALL_RADIUS)
+    assert len(static) == len(pedestrian_worlds.wall_cylinders(walls))
 
 
 def test_corridor_robot_and_pedestrians_start_where_the_design_says():
     for seed in range(5):
-        world = worlds.generate_corridor(np.random.RandomState(seed), n_pedestrians=12)
-        width = worlds.CORRIDOR_SIZE[1]
-        margin = worlds.PEDESTRIAN_RADIUS + worlds.ROBOT_WALL_CLEARANCE
-        assert world.start[0] == worlds.CORRIDOR_START_X and world.goal[0] == worlds.CORRIDOR_GOAL_X
+        world = pedestrian_worlds.generate_corridor(np.random.RandomState(seed), n_pedestrians=12)
+        width = pedestrian_worlds.CORRIDOR_SIZE[1]
+        margin = pedestrian_worlds.PEDESTRIAN_RADIUS + pedestrian_worlds.ROBOT_WALL_CLEARANCE
+        assert (
+            world.start[0] == pedestrian_worlds.CORRIDOR_START_X
+            and world.goal[0] == pedestrian_worlds.CORRIDOR_GOAL_X
+        )
         for y in (world.start[1], world.goal[1]):
             assert margin <= y <= width - margin
         heading = np.arctan2(*(world.goal - world.start[:2])[::-1])
@@ -67,42 +84,42 @@ def test_corridor_robot_and_pedestrians_start_where_the_design_says():
         # half head-on (toward -x), half the robot's way, each heading for its goal
         head_on = goal[:, 0] < 0
         assert head_on.sum() == 6
-        np.testing.assert_array_equal(goal[head_on, 0], -worlds.CORRIDOR_END)
-        np.testing.assert_array_equal(goal[~head_on, 0], 20.0 + worlds.CORRIDOR_END)
+        np.testing.assert_array_equal(goal[head_on, 0], -pedestrian_worlds.CORRIDOR_END)
+        np.testing.assert_array_equal(goal[~head_on, 0], 20.0 + pedestrian_worlds.CORRIDOR_END)
         assert (np.cos(moving[head_on, 2]) < 0).all() and (np.cos(moving[~head_on, 2]) > 0).all()
         np.testing.assert_allclose(world.moving_speed, world.moving_pref_speed)
-        lo, hi = worlds.CORRIDOR_SPEED_RANGE
+        lo, hi = pedestrian_worlds.CORRIDOR_SPEED_RANGE
         assert ((world.moving_pref_speed >= lo) & (world.moving_pref_speed <= hi)).all()
         # inside the corridor, clear of the walls, of each other and of the robot
         r = moving[:, 3]
-        assert (moving[:, 1] - r >= worlds.PEDESTRIAN_START_GAP - 1e-12).all()
-        assert (width - moving[:, 1] - r >= worlds.PEDESTRIAN_START_GAP - 1e-12).all()
-        assert (np.abs(moving[:, 0] - 10.0) <= 10.0 + worlds.CORRIDOR_END).all()
-        assert _surface_gaps(moving).min() >= worlds.PEDESTRIAN_START_GAP - 1e-12
-        robot = worlds.clearance(world.start[:2], moving, worlds.PEDESTRIAN_RADIUS)
-        assert robot.min() >= worlds.PEDESTRIAN_START_CLEARANCE
+        assert (moving[:, 1] - r >= sampling.PEDESTRIAN_START_GAP - 1e-12).all()
+        assert (width - moving[:, 1] - r >= sampling.PEDESTRIAN_START_GAP - 1e-12).all()
+        assert (np.abs(moving[:, 0] - 10.0) <= 10.0 + pedestrian_worlds.CORRIDOR_END).all()
+        assert _surface_gaps(moving).min() >= sampling.PEDESTRIAN_START_GAP - 1e-12
+        robot = world_base.clearance(world.start[:2], moving, pedestrian_worlds.PEDESTRIAN_RADIUS)
+        assert robot.min() >= pedestrian_worlds.PEDESTRIAN_START_CLEARANCE
         assert world.behavior == "social_force" and not world.robot_visible
     np.testing.assert_allclose(
-        world.obstacle_model, [1.2, 0.2, 0.0, worlds.PEDESTRIAN_TURN_RATE_STD]
+        world.obstacle_model, [1.2, 0.2, 0.0, pedestrian_worlds.PEDESTRIAN_TURN_RATE_STD]
     )
 
 
 def test_square_start_and_goal_on_opposite_sides_pedestrians_apart():
     sides = set()
     for seed in range(12):
-        world = worlds.generate_square(np.random.RandomState(seed))
+        world = pedestrian_worlds.generate_square(np.random.RandomState(seed))
         start, goal = world.start[:2], world.goal
-        edge, size = worlds.SQUARE_EDGE, worlds.SQUARE_SIZE[0]
+        edge, size = pedestrian_worlds.SQUARE_EDGE, pedestrian_worlds.SQUARE_SIZE[0]
         axis = int(np.isclose(abs(goal[1] - start[1]), size - 2 * edge))
         assert abs(goal[axis] - start[axis]) == pytest.approx(size - 2 * edge)
         assert edge <= min(*start, *goal) and max(*start, *goal) <= size - edge
         sides.add((axis, bool(goal[axis] > start[axis])))
         moving = world.moving
-        assert len(moving) == worlds.SQUARE_PEDESTRIANS
+        assert len(moving) == pedestrian_worlds.SQUARE_PEDESTRIANS
         assert ((moving[:, :2] >= moving[:, 3:]) & (moving[:, :2] <= size - moving[:, 3:])).all()
-        assert _surface_gaps(moving).min() >= worlds.PEDESTRIAN_START_GAP - 1e-12
-        robot = worlds.clearance(start, moving, worlds.PEDESTRIAN_RADIUS)
-        assert robot.min() >= worlds.PEDESTRIAN_START_CLEARANCE
+        assert _surface_gaps(moving).min() >= sampling.PEDESTRIAN_START_GAP - 1e-12
+        robot = world_base.clearance(start, moving, pedestrian_worlds.PEDESTRIAN_RADIUS)
+        assert robot.min() >= pedestrian_worlds.PEDESTRIAN_START_CLEARANCE
         assert ((world.moving_pref_speed >= 1.0) & (world.moving_pref_speed <= 2.0)).all()
         assert (world.moving_goal >= 0).all() and (world.moving_goal <= size).all()
     assert len(sides) == 4  # every side is a start side for some seed
@@ -117,7 +134,7 @@ def test_a_walking_crowd_keeps_the_constant_crowds_draws_where_they_do_not_overl
     np.testing.assert_array_equal(walking.moving_pref_speed, walking.moving_speed)
     kept = (constant.moving[:, :2] == walking.moving[:, :2]).all(axis=1)
     assert 0.5 < kept.mean() < 1.0  # some overlapped and were redrawn
-    assert _surface_gaps(walking.moving).min() >= worlds.PEDESTRIAN_START_GAP - 1e-12
+    assert _surface_gaps(walking.moving).min() >= sampling.PEDESTRIAN_START_GAP - 1e-12
     assert _surface_gaps(constant.moving).min() < 0  # the Dubins crowd may overlap
     assert np.isnan(constant.moving_goal).all() and np.isnan(constant.moving_pref_speed).all()
     np.testing.assert_array_equal(walking.moving_turn_rate, 0.0)
@@ -126,7 +143,7 @@ def test_a_walking_crowd_keeps_the_constant_crowds_draws_where_they_do_not_overl
 
 def test_too_many_pedestrians_say_how_many_fit():
     with pytest.raises(ValueError, match=r"only \d+ of 400 pedestrians .*lower n_pedestrians"):
-        worlds.generate_corridor(np.random.RandomState(0), n_pedestrians=400)
+        pedestrian_worlds.generate_corridor(np.random.RandomState(0), n_pedestrians=400)
     env = tasks.load("square", {"n_pedestrians": 150, "random": 0})
     with pytest.raises(ValueError, match=r"only \d+ of 150 pedestrians .*the square"):
         env.reset()
@@ -197,7 +214,7 @@ def test_corridor_pedestrians_walk_toward_their_goals_and_are_observed_exactly()
     arrived = (walkers.goal != world.moving_goal).any(axis=1)
     assert 0 < arrived.sum() < len(arrived)
     # those that arrived walk again from their start end ...
-    start_x, _ = worlds.corridor_ends(world.moving_goal[:, 0] < 0)
+    start_x, _ = pedestrian_worlds.corridor_ends(world.moving_goal[:, 0] < 0)
     assert (np.abs(obs["moving_obstacles"][arrived, 0] - start_x[arrived]) < 2.0 * 2.0).all()
     # ... the others made their way to their goals at about their preferred speeds
     moved = obs["moving_obstacles"][:, :2] - first
@@ -220,7 +237,7 @@ def test_corridor_pedestrians_reappear_at_their_start_end():
     env = tasks.load("corridor", {"random": 0})
     env.reset()
     world, random = env.task.world, np.random.RandomState(0)
-    lane = worlds.corridor_lane(worlds.PEDESTRIAN_RADIUS)
+    lane = pedestrian_worlds.corridor_lane(pedestrian_worlds.PEDESTRIAN_RADIUS)
     for i in range(len(world.moving)):
         head_on = world.moving_goal[i, 0] < 0
         position, goal = env.task.next_goal(random, i, world.moving_goal[i])
@@ -265,7 +282,7 @@ def test_constant_crowd_moves_as_dubins_obstacles():
     ts = env.reset()
     world = env.task.world
     assert world.behavior == "constant"
-    arcs = worlds.DubinsObstacles(
+    obstacles = arcs.DubinsObstacles(
         world.moving[:, :3],
         world.moving_speed,
         world.moving_turn_rate,
@@ -273,14 +290,14 @@ def test_constant_crowd_moves_as_dubins_obstacles():
         navigation.PHYSICS_TIMESTEP,
     )
     for _ in range(15):
-        moving, pose = ts.observation["moving_obstacles"], arcs.pose()
+        moving, pose = ts.observation["moving_obstacles"], obstacles.pose()
         np.testing.assert_array_equal(moving[:, :2], pose[:, :2])
         np.testing.assert_allclose(np.cos(moving[:, 2] - pose[:, 2]), 1.0)
-        np.testing.assert_allclose(ts.observation["moving_velocity"], arcs.velocity)
+        np.testing.assert_allclose(ts.observation["moving_velocity"], obstacles.velocity)
         speed = np.hypot(*ts.observation["moving_velocity"].T)
         np.testing.assert_allclose(speed, world.moving_speed)
         ts = env.step([0.5, 0.0, 0.0])
-        arcs.advance(10)
+        obstacles.advance(10)
 
 
 @pytest.mark.parametrize("behavior", ["social_force", "orca"])

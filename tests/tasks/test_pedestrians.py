@@ -212,7 +212,7 @@ def test_bad_input_names_the_problem():
     )
     cases = [
         (dict(behavior="walk"), "unknown behavior 'walk'; valid behaviors: .*social_force"),
-        (dict(behavior="constant"), "'constant' moves with worlds.DubinsObstacles"),
+        (dict(behavior="constant"), "'constant' moves with arcs.DubinsObstacles"),
         (dict(radius=[0.3, 0.0]), "radius must be > 0; pedestrian 1 has 0.0"),
         (dict(pref_speed=[np.nan, 1.0]), "pref_speed must be > 0; pedestrian 0 has nan"),
         (dict(goal=np.zeros((3, 2))), r"goal must have shape \(2, 2\); got \(3, 2\)"),

@@ -10,7 +10,7 @@ from dm_env import test_utils
 
 from dcmppi import tasks
 from dcmppi.control import defaults
-from dcmppi.tasks import navigation, worlds
+from dcmppi.tasks import world_base, worlds
 
 DATA = pathlib.Path(__file__).parent / "data"
 BARN = str(DATA / "barn_worlds_0_1.csv")
@@ -179,8 +179,8 @@ def test_action_is_clipped_to_the_turn_rate_bound():
 def test_crowd_reports_the_known_gaussian_not_the_truth():
     env = make("crowd")
     obs = env.reset().observation
-    v_mean, v_std = worlds.uniform_mean_std(*worlds.OBSTACLE_SPEED_RANGE)
-    w_mean, w_std = worlds.uniform_mean_std(*worlds.OBSTACLE_TURN_RATE_RANGE)
+    v_mean, v_std = world_base.uniform_mean_std(*world_base.OBSTACLE_SPEED_RANGE)
+    w_mean, w_std = world_base.uniform_mean_std(*world_base.OBSTACLE_TURN_RATE_RANGE)
     np.testing.assert_allclose(obs["obstacle_model"], [v_mean, v_std, w_mean, w_std])
     assert obs["moving_obstacles"].shape == (12, 4)
     np.testing.assert_allclose(obs["moving_obstacles"][:, 3], worlds.MOVING_OBSTACLE_RADIUS)
@@ -212,7 +212,7 @@ def test_goal_ends_episode_with_reward(tmp_path):
     obs = run(env, 100, policy=lambda i: [0.0])
     assert env.task.outcome == "goal"
     final = obs[-1]["robot_pose"]
-    assert np.hypot(final[0] - 5, final[1]) <= navigation.GOAL_TOLERANCE
+    assert np.hypot(final[0] - 5, final[1]) <= world_base.GOAL_TOLERANCE
     # Driving straight at v = 1 m/s the goal disc (radius 1) is entered after about 4 s.
     assert len(obs) - 1 == pytest.approx(40, abs=1)
 

@@ -5,7 +5,7 @@ import pytest
 
 from dcmppi import tasks
 from dcmppi.control import defaults
-from dcmppi.tasks import navigation, worlds
+from dcmppi.tasks import arcs, navigation, sampling, world_base, worlds
 
 
 def drive(env, omega=0.0, steps=10_000):
@@ -73,7 +73,7 @@ def test_forest_episodes_start_collision_free():
     env = tasks.load("forest", {"random": 3})
     for _ in range(5):
         obs = env.reset().observation
-        assert obs["clearance"][0] >= worlds.START_GOAL_CLEARANCE
+        assert obs["clearance"][0] >= sampling.START_GOAL_CLEARANCE
         ts = env.step([0.0])
         assert not env.physics.collided or ts.last()
 
@@ -132,7 +132,7 @@ def test_moving_obstacles_follow_dubins_arcs_and_stay_in_the_map():
         assert (moving[:, 0] >= xmin).all() and (moving[:, 0] <= xmax).all()
         assert (moving[:, 1] >= ymin).all() and (moving[:, 1] <= ymax).all()
         t = step * defaults.DT
-        arc = worlds.dubins_pose(world.moving[:, :3], world.moving_speed, world.moving_turn_rate, t)
+        arc = arcs.dubins_pose(world.moving[:, :3], world.moving_speed, world.moving_turn_rate, t)
         inside = (arc[:, 0] > xmin) & (arc[:, 0] < xmax) & (arc[:, 1] > ymin) & (arc[:, 1] < ymax)
         inside_all_along &= inside
         ok = inside_all_along
@@ -161,7 +161,7 @@ def test_obstacles_move_every_substep():
 def test_dubins_obstacle_reflects_off_a_wall():
     bounds = np.array([0.0, 0.0, 10.0, 10.0])
     pose = np.array([[0.05, 5.0, np.pi], [5.0, 9.97, np.pi / 2]])
-    obstacles = worlds.DubinsObstacles(pose, [1.0, 1.0], [0.0, 0.0], bounds, 0.01)
+    obstacles = arcs.DubinsObstacles(pose, [1.0, 1.0], [0.0, 0.0], bounds, 0.01)
     z = obstacles.advance(10)
     np.testing.assert_allclose(z[-1].real[0], 0.05, atol=1e-9)  # 0.05 m out, 0.05 m back
     np.testing.assert_allclose(obstacles.theta[0], 0.0, atol=1e-9)  # now heading +x
@@ -184,12 +184,12 @@ def test_forest_generator_makes_overlapping_clusters_and_far_apart_start_goal():
     assert (solid[:, 2] >= lo).all() and (solid[:, 2] <= hi).all()
     assert len(np.unique(solid[:, 2])) == len(solid)  # different radii
     distance = np.hypot(*(world.goal - world.start[:2]))
-    assert distance >= worlds.MIN_START_GOAL_DISTANCE
+    assert distance >= sampling.MIN_START_GOAL_DISTANCE
     for point in (world.start[:2], world.goal):
-        margin = worlds.clearance(point, solid, defaults.ROBOT_RADIUS).min()
-        assert margin >= worlds.START_GOAL_CLEARANCE
+        margin = world_base.clearance(point, solid, defaults.ROBOT_RADIUS).min()
+        assert margin >= sampling.START_GOAL_CLEARANCE
     # Every cylinder after the first of its cluster overlaps another cylinder.
-    gaps = worlds.clearance(solid[:, :2], solid, 0.0) - solid[:, 2:3]
+    gaps = world_base.clearance(solid[:, :2], solid, 0.0) - solid[:, 2:3]
     np.fill_diagonal(gaps, np.inf)
     assert (gaps.min(axis=1) < 0).mean() > 0.5
     # Start faces the goal.
@@ -212,11 +212,11 @@ def test_crowd_generator_follows_the_spec():
     assert ((moving[:, 1] >= ymin) & (moving[:, 1] <= ymax)).all()
     surface = np.hypot(*(moving[:, :2] - world.start[:2]).T) - moving[:, 3]
     assert surface.min() >= worlds.CROWD_START_CLEARANCE
-    lo, hi = worlds.OBSTACLE_SPEED_RANGE
+    lo, hi = world_base.OBSTACLE_SPEED_RANGE
     assert (world.moving_speed >= lo).all() and (world.moving_speed <= hi).all()
-    lo, hi = worlds.OBSTACLE_TURN_RATE_RANGE
+    lo, hi = world_base.OBSTACLE_TURN_RATE_RANGE
     assert (world.moving_turn_rate >= lo).all() and (world.moving_turn_rate <= hi).all()
-    assert np.hypot(*(world.goal - world.start[:2])) >= worlds.MIN_START_GOAL_DISTANCE
+    assert np.hypot(*(world.goal - world.start[:2])) >= sampling.MIN_START_GOAL_DISTANCE
 
 
 def test_blocked_obstacle_sits_on_the_start_goal_line():

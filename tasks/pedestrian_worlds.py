@@ -113,35 +113,21 @@ def generate_corridor(
       ValueError: the pedestrians do not fit (`place_discs`).
     """
     length, width = size
-    bounds = map_bounds(size)
     margin = robot_radius + ROBOT_WALL_CLEARANCE
     y_start, y_goal = random.uniform(margin, width - margin, size=2)
     heading = math.atan2(y_goal - y_start, CORRIDOR_GOAL_X - CORRIDOR_START_X)
     start = np.array([CORRIDOR_START_X, y_start, heading])
-    walls = corridor_walls(size)
     n = int(n_pedestrians)
     head_on = np.arange(n) < n - n // 2
     _, goal_x = corridor_ends(head_on, size)
     lane = corridor_lane(radius, size)
-    robot = [[*start[:2], robot_radius + PEDESTRIAN_START_CLEARANCE]]
     low, high = [-CORRIDOR_END, lane[0]], [length + CORRIDOR_END, lane[1]]
-    xy = place_discs(random, n, radius, low, high, robot, where="the corridor")
-    moving_goal = np.column_stack([goal_x, random.uniform(*lane, size=n)])
-    pref_speed = np.clip(random.normal(*speed, size=n), *speed_range)
-    moving = np.column_stack([xy, heading_to(xy, moving_goal), np.full(n, float(radius))])
-    return make_world(
-        start,
-        [CORRIDOR_GOAL_X, y_goal],
-        static=wall_cylinders(walls),
-        moving=moving,
-        speed=pref_speed,
-        bounds=bounds,
-        obstacle_model=pedestrian_obstacle_model(*speed),
-        behavior=behavior,
-        moving_goal=moving_goal,
-        pref_speed=pref_speed,
-        walls=walls,
-        robot_visible=robot_visible,
+    xy = _place_pedestrians(random, n, radius, start, robot_radius, low, high, "the corridor")
+    goals = np.column_stack([goal_x, random.uniform(*lane, size=n)])
+    speeds = np.clip(random.normal(*speed, size=n), *speed_range)
+    goal, bounds, walls = [CORRIDOR_GOAL_X, y_goal], map_bounds(size), corridor_walls(size)
+    return _pedestrian_world(
+        start, goal, bounds, xy, radius, goals, speeds, speed, behavior, robot_visible, walls
     )
 
 
@@ -169,23 +155,44 @@ def generate_square(
     bounds = map_bounds(size)
     start, goal = _opposite_sides(random, bounds, SQUARE_EDGE)
     n = int(n_pedestrians)
-    robot = [[*start[:2], robot_radius + PEDESTRIAN_START_CLEARANCE]]
-    xy = place_discs(
-        random, n, radius, bounds[:2] + radius, bounds[2:] - radius, robot, where="the square"
+    low, high = bounds[:2] + radius, bounds[2:] - radius
+    xy = _place_pedestrians(random, n, radius, start, robot_radius, low, high, "the square")
+    goals = random_points(random, n, bounds, radius)
+    speeds = random.uniform(*speed_range, size=n)
+    speed = uniform_mean_std(*speed_range)
+    return _pedestrian_world(
+        start, goal, bounds, xy, radius, goals, speeds, speed, behavior, robot_visible
     )
-    moving_goal = random_points(random, n, bounds, radius)
-    pref_speed = random.uniform(*speed_range, size=n)
-    moving = np.column_stack([xy, heading_to(xy, moving_goal), np.full(n, float(radius))])
+
+
+def _place_pedestrians(random, n, radius, start, robot_radius, low, high, where) -> np.ndarray:
+    """Centres (n, 2) of n pedestrians of `radius` in the box low..high (2,), none within
+    PEDESTRIAN_START_CLEARANCE of the robot of `robot_radius` at its start pose (3,)."""
+    robot = [[*start[:2], robot_radius + PEDESTRIAN_START_CLEARANCE]]
+    return place_discs(random, n, radius, low, high, robot, where=where)
+
+
+def _pedestrian_world(
+    start, goal, bounds, xy, radius, goals, speeds, speed, behavior, robot_visible, walls=None
+) -> World:
+    """The `World` of pedestrians at xy (n, 2) of `radius`, each heading for its first goal
+    goals (n, 2) at its preferred speed speeds (n,), whose population has (mean, std) `speed`,
+    walking with `behavior`; the robot's start (3,) and goal (2,), the map's bounds (4,) and
+    the walls (W, 4), none by default."""
+    walls = np.zeros((0, 4)) if walls is None else walls
+    moving = np.column_stack([xy, heading_to(xy, goals), np.full(len(xy), float(radius))])
     return make_world(
         start,
         goal,
+        static=wall_cylinders(walls),
         moving=moving,
-        speed=pref_speed,
+        speed=speeds,
         bounds=bounds,
-        obstacle_model=pedestrian_obstacle_model(*uniform_mean_std(*speed_range)),
+        obstacle_model=pedestrian_obstacle_model(*speed),
         behavior=behavior,
-        moving_goal=moving_goal,
-        pref_speed=pref_speed,
+        moving_goal=goals,
+        pref_speed=speeds,
+        walls=walls,
         robot_visible=robot_visible,
     )
 

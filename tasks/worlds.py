@@ -8,7 +8,6 @@ import numpy as np
 
 from dcmppi.control import defaults
 
-from .arcs import DubinsObstacles  # noqa: F401  (dcmppi.bench.timing reads worlds.DubinsObstacles)
 from .sampling import heading_to, place_discs, random_points, sample_start_goal
 from .world_base import (
     BEHAVIOR_CONSTANT,

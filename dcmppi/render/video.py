@@ -13,7 +13,7 @@ One GL context and one MuJoCo scene serve all frames, and each frame goes straig
 ffmpeg pipe, so memory does not grow with the episode. A GIF keeps at most GIF_MAX_FRAMES
 frames (see `VideoWriter`); an MP4 keeps every frame. The backend comes from MUJOCO_GL; if it
 is unset, the first of egl, osmesa whose library is installed (set before MuJoCo is imported).
-MuJoCo is imported here and by the tasks (dcmppi.tasks.navigation), never by
+MuJoCo is imported here and by the tasks (dcmppi.tasks.physics), never by
 `import dcmppi` or dcmppi.control.
 """
 

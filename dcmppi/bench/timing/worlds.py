@@ -4,13 +4,14 @@ forest+push.
 The worlds are the tasks' own, drawn by their generators (dcmppi.tasks.worlds, plain numpy) from
 `np.random.RandomState(SEED)`: the same arrays a task observes (static (M, 3) rows x, y, radius,
 radius-0 rows padding; moving (L, 4) rows x, y, heading, radius; the map's bounds (4,)), and the
-crowd moves as the crowd task's obstacles do (tasks.worlds.DubinsObstacles). The pedestrian
+crowd moves as the crowd task's obstacles do (tasks.arcs.DubinsObstacles). The pedestrian
 problems (PEDESTRIANS) are a task's world with its pedestrians (tasks.pedestrians.Pedestrians)
 built as the task's physics builds them, walking to the goals the task's next_goal gives.
 """
 
 import numpy as np
 
+from dcmppi.tasks import arcs as task_arcs
 from dcmppi.tasks import pedestrians as task_pedestrians
 from dcmppi.tasks import worlds as task_worlds
 from dcmppi.tasks.corridor import Corridor
@@ -21,7 +22,7 @@ GENERATORS = {"forest": task_worlds.generate_forest, "crowd": task_worlds.genera
 
 
 def world(family, seed=SEED, **counts):
-    """The tasks' World (dcmppi.tasks.worlds.World) of a problem family ("forest", "crowd");
+    """The tasks' World (dcmppi.tasks.world_base.World) of a problem family ("forest", "crowd");
     `counts` go to its generator (forest: n_clusters, map_size; crowd: n_obstacles)."""
     return GENERATORS[family](np.random.RandomState(seed), **counts)
 
@@ -85,7 +86,7 @@ def forest(seed=SEED):
 def moving_crowd(w, dt):
     """The crowd of World w as the task moves it: DubinsObstacles, one exact arc per control
     period dt [s], reflecting off the map's walls. Observe it with `observed`."""
-    return task_worlds.DubinsObstacles(
+    return task_arcs.DubinsObstacles(
         w.moving[:, :3], w.moving_speed, w.moving_turn_rate, w.map_bounds, dt
     )
 

@@ -315,22 +315,22 @@ class Controller:
 
         x0: (3,), or (3, S) with starts = S > 1: every sample rolls out from each start.
         eps: (N, nu, K) perturbations, or None: this step's (Controller.sample); per-step draws
-          into a box (dubins, unicycle) are then bounded block by block as they are drawn, with
+          into a box (dubins, unicycle) are then bounded row by row as they are drawn, with
           the values of sample() then controls() (perturbations.draw_box).
         Returns e (N, nu, K) the perturbations that remain, states (3, N + 1, S K), J (S K,),
         the importance term (K,); with sums=True also the horizon sums of e (nu, K), with
         moving=True J's moving-obstacle term (S K,) (None: 0).
         """
-        agent, U0, K = self.agent, self.U, self.K
-        draw = None
+        agent, U0 = self.agent, self.U
         if eps is None and self.perturbation != "constant" and agent.norm_axes is None:
-            draw = self._per_step()
-            project = functools.partial(draw_box, self._key, *draw, U0, agent.lower, agent.upper)
+            step = self._per_step()
+            project = functools.partial(draw_box, self._key, *step, U0, agent.lower, agent.upper)
         else:
             if eps is None:
                 with self.timer("sample"):
                     eps = self.sample()
             project = functools.partial(project_columns, agent, U0, eps)
+        K = self.K if eps is None else eps.shape[2]
         ranges = parts(K, self.threads)
         u, e = np.empty((self.N, self.nu, K)), np.empty((self.N, self.nu, K))
         total = np.zeros((self.nu, K)) if sums else NO_SUMS

@@ -148,9 +148,10 @@ def draw_normals(key, draw, shape, scale, add=None, threads=1):
 
 def draw_box(key, draw, scale, add, U0, lower, upper, u, e, sums, cols=None):
     """The controls of the draw `draw` of the stream `key` (draw_normals' eps = z * scale[:, None]
-    (+ add)) in their box, into the samples cols = (j0, j1) (None: all) of u, e (N, nu, K): u =
-    min(max(U0 + eps, lower), upper), e = u - U0, with the horizon sums of e added to sums (nu, K)
-    (a (0, 0) array: none); the values of draw_normals then agents.projection's box, in one pass.
+    (+ add)) in their box, into the samples cols = (j0, j1) of u, e (N, nu, K) (None: all; j0 a
+    multiple of BLOCK, as threads.parts gives): u = min(max(U0 + eps, lower), upper), e = u - U0,
+    with the horizon sums of e added to sums (nu, K) (a (0, 0) array: none); the values of
+    draw_normals then agents.projection's box, in one pass.
 
     scale, lower, upper: (nu,); add: (nu, K) or None; U0: (N, nu).
     """

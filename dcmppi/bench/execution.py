@@ -18,6 +18,7 @@ Workers tune glibc's malloc for the controllers' per-step temporaries
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import os
 import signal
@@ -280,8 +281,25 @@ def _local(todo, workers: int, timeout: float | None) -> Iterator:
                         w = pool[i] = _Worker()
                     w.give(job)
     finally:
-        for w in pool:
-            w.stop()
+        with _interrupts_held():  # a second Ctrl-C waits until every worker is stopped
+            for w in pool:
+                w.stop()
+
+
+@contextlib.contextmanager
+def _interrupts_held():
+    """SIGINT and SIGTERM held back in this block (delivered, and so raised, when it ends); on
+    the main thread of a POSIX system, else nothing."""
+    held = {signal.SIGINT, signal.SIGTERM}
+    main = threading.current_thread() is threading.main_thread()
+    if not (main and hasattr(signal, "pthread_sigmask")):
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _serve(inbox: int, outbox: int, parent: int) -> None:
@@ -297,7 +315,11 @@ def _serve(inbox: int, outbox: int, parent: int) -> None:
             return
         if spec is None:
             return
-        results.send(run_safely(spec))
+        result = run_safely(spec)
+        try:
+            results.send(result)
+        except OSError:  # the parent stopped reading (interrupted): nobody to report to
+            return
 
 
 def _exit_with_parent(parent: int) -> None:

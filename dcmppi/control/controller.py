@@ -296,6 +296,17 @@ class Controller:
         self._draws += 1
         return self._draws, scale, add
 
+    def _draws_in_pass(self):
+        """Whether perturbed_rollouts may draw this step's perturbations in the pass that
+        bounds them: per-step draws into a box, and sample() as defined here (a subclass's or an
+        instance's own sample() is called instead)."""
+        return (
+            self.perturbation != "constant"
+            and self.agent.norm_axes is None
+            and type(self).sample is Controller.sample
+            and "sample" not in vars(self)
+        )
+
     def _normals(self, shape, scale):
         """The next draw of this episode's perturbation stream (dcmppi.control.perturbations):
         z * scale[:, None] for standard normals z (1, nu, K), on this thread."""
@@ -316,13 +327,14 @@ class Controller:
         x0: (3,), or (3, S) with starts = S > 1: every sample rolls out from each start.
         eps: (N, nu, K) perturbations, or None: this step's (Controller.sample); per-step draws
           into a box (dubins, unicycle) are then bounded row by row as they are drawn, with
-          the values of sample() then controls() (perturbations.draw_box).
+          the values of sample() then controls() (perturbations.draw_box), unless sample() is
+          replaced (a subclass's or an instance's: it is called).
         Returns e (N, nu, K) the perturbations that remain, states (3, N + 1, S K), J (S K,),
         the importance term (K,); with sums=True also the horizon sums of e (nu, K), with
         moving=True J's moving-obstacle term (S K,) (None: 0).
         """
         agent, U0 = self.agent, self.U
-        if eps is None and self.perturbation != "constant" and agent.norm_axes is None:
+        if eps is None and self._draws_in_pass():
             step = self._per_step()
             project = functools.partial(draw_box, self._key, *step, U0, agent.lower, agent.upper)
         else:

@@ -8,6 +8,7 @@ from scipy import stats
 from dcmppi.control import make_controller
 from dcmppi.control.agents.projection import NO_SUMS, project_perturbed
 from dcmppi.control.libm import log_unit, sincos
+from dcmppi.control.mppi import MPPI
 from dcmppi.control.perturbations import BLOCK, draw_box, draw_normals
 from dcmppi.control.threads import parts
 
@@ -127,3 +128,22 @@ def test_a_step_drawn_in_its_pass_equals_sample_then_controls(perturbation):
             runs.append(ctrl.perturbed_rollouts(np.zeros(3), eps, sums=True) + (ctrl._draws,))
         for a, b in zip(*runs, strict=True):
             assert np.array_equal(a, b)
+
+
+def test_a_replaced_sample_is_used():
+    """A subclass's or an instance's own sample() gives the step's perturbations: the draw in
+    the projection's pass stands in only for the sample() defined by Controller."""
+
+    class Fixed(MPPI):
+        def sample(self):
+            return np.full((self.N, self.nu, self.K), 0.125)
+
+    goal = np.array([5.0, 1.0])
+    ctrl = Fixed(agent="unicycle", K=70, N=9, seed=1, perturbation="time_varying")
+    ctrl.act(np.zeros(3), goal)
+    e = ctrl.diagnostics.eps  # (K, N, nu): what remains after the bounds
+    assert (e == e[:1]).all() and (e == 0.125).any() and (e <= 0.125).all()  # every sample's
+    ctrl = make_controller("mppi", agent="unicycle", K=70, N=9, seed=1, perturbation="mixed")
+    ctrl.sample = lambda: np.zeros((ctrl.N, ctrl.nu, ctrl.K))
+    ctrl.act(np.zeros(3), goal)
+    assert not ctrl.diagnostics.eps.any()

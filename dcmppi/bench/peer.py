@@ -197,15 +197,18 @@ class PeerLoop:
         return float(np.median(times)), float(np.percentile(times, 95))
 
 
-def compare(ours, steps, block=1):
+def compare(ours, steps, block=1, threaded=None):
     """Time our closed loop `ours` (timing.loop.ClosedLoop, not yet stepped) beside pytorch_mppi's.
 
     Both run `steps` control steps, interleaved in blocks of `block` consecutive steps each (as
     timing's table: a block's steps find their data in the caches as a controller's consecutive
     steps do; block = 1: every step after the other's, cold), with torch on one thread (the
-    caller limits numpy's pools). Returns a dict: settings, versions, ours and theirs
+    caller limits numpy's pools). `threaded`: the same loop with our `threads` > 1, not yet
+    stepped, interleaved with the two. Returns a dict: settings, versions, ours and theirs
     (median_ms, p95_ms), both ratios, the first actions and first plans' costs under the shared
-    cost, and `same_problem`: a short message that both solve the same problem.
+    cost, and `same_problem`: a short message that both solve the same problem; with `threaded`
+    also "threaded" (threads, median_ms, p95_ms, speedup: ours' median over its, same_path:
+    whether it drove the path of `ours` exactly, as equal plans do).
     """
     torch, _ = require()
     threads = torch.get_num_threads()
@@ -213,13 +216,14 @@ def compare(ours, steps, block=1):
     try:
         theirs = PeerLoop(ours)
         problem, start = theirs.problem, theirs.state.copy()
-        paths, plans = [[], []], []
+        loops = (ours, theirs) + ((threaded,) if threaded else ())
+        paths, plans = [[] for _ in loops], []
         for block_start in range(0, steps, block):
-            for loop, path in zip((ours, theirs), paths, strict=True):
+            for loop, path in zip(loops, paths, strict=True):
                 for i in range(block_start, min(block_start + block, steps)):
                     loop.step()
                     path.append(loop.state[:2])
-                    if i == 0:
+                    if i == 0 and loop is not threaded:
                         plan = loop.ctrl.diagnostics.plan if loop is ours else loop.mppi.U.numpy()
                         plans.append(np.array(plan))
     finally:
@@ -230,6 +234,13 @@ def compare(ours, steps, block=1):
     first = plans[:, 0, 0].tolist()
     gap = float(np.hypot(*(ours.state[:2] - theirs.state[:2])))
     c = ours.ctrl
+    extra = {}
+    if threaded:
+        mp, pp = threaded.summary()
+        extra["threaded"] = {
+            "threads": threaded.ctrl.threads, "median_ms": mp, "p95_ms": pp,
+            "speedup": mo / mp, "same_path": bool(np.array_equal(paths[0], paths[2])),
+        }  # fmt: skip
     return {
         "settings": {
             "controller": c.name,
@@ -255,9 +266,10 @@ def compare(ours, steps, block=1):
             f"first step from the same start: omega {first[0]:+.3f} (ours) and {first[1]:+.3f} "
             f"(pytorch_mppi) rad/s, plan costs under the shared cost {costs[0]:.1f} and "
             f"{costs[1]:.1f} (zero turn rates {costs[2]:.1f}); "
-            + passing(ours.static, start, ours.goal, ours.ctrl.robot_radius, paths)
+            + passing(ours.static, start, ours.goal, ours.ctrl.robot_radius, paths[:2])
             + f"; after {steps} steps they are {100 * gap:.1f} cm apart"
         ),
+        **extra,
     }
 
 

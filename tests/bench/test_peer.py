@@ -127,6 +127,23 @@ def test_against_takes_the_problem_size(capsys):
     assert (theirs.K, theirs.T) == (64, 20)
 
 
+def test_against_times_our_threads_in_the_same_run(capsys):
+    """--threads 2: a third row, ours on two threads, interleaved; it drives the same path."""
+    _peer()
+    argv = ["--against", "pytorch_mppi", "--K", "200", "--N", "15", "--steps", "8"]
+    assert timing.main([*argv, "--threads", "2", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    t = result["threaded"]
+    assert t["threads"] == 2 and t["same_path"] and t["median_ms"] > 0
+    assert t["speedup"] == pytest.approx(result["ours"]["median_ms"] / t["median_ms"])
+    assert timing.main([*argv, "--threads", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "mppi (dcmppi, threads=2)" in out and "ours / ours with threads=2 = " in out
+    assert "the same path: yes" in out
+    assert timing.main([*argv, "--json"]) == 0
+    assert "threaded" not in json.loads(capsys.readouterr().out)
+
+
 @pytest.mark.parametrize(
     "argv, message",
     [
@@ -137,6 +154,14 @@ def test_against_takes_the_problem_size(capsys):
         (["--against", "pytorch_mppi", "--N", "2.5"], "argument --N: invalid int value: '2.5'"),
         (["--N", "100"], "--N sets the size of --against's problem: add --against pytorch_mppi"),
         (["--out", "x"], "--out is where --scaling writes its JSON and plot; add --scaling"),
+        (
+            ["--threads", "2"],
+            "--threads is --against's second row of ours: add --against pytorch_mppi",
+        ),
+        (
+            ["--against", "pytorch_mppi", "--threads", "0"],
+            "--threads must be a whole number in 1 .. 64; got 0",
+        ),
     ],
 )
 def test_a_bad_size_is_one_line_naming_it(argv, message, capsys):

@@ -17,8 +17,9 @@ from .loop import BLOCK, ClosedLoop, time_cases
 from .profile import print_profile, profile
 
 STEPS = 100  # control steps per case of the table, the profile, the fingerprint and --against
-# pytorch_mppi / ours wanted at a size (K, N) (issue 26)
+# pytorch_mppi / ours wanted at a size (K, N), and ours on one thread / on two (issue 26)
 AGAINST_TARGETS = {(defaults.K, defaults.N): 14, (2048, 100): 12}
+THREADS_TARGETS = {(2048, 100): 1.7}
 
 
 class _Parser(argparse.ArgumentParser):
@@ -52,6 +53,12 @@ def main(argv=None):
     parser.add_argument("--K", type=int, help=f"--against: samples per step (default {defaults.K})")
     parser.add_argument("--N", type=int, help=f"--against: horizon steps (default {defaults.N})")
     parser.add_argument(
+        "--threads",
+        type=int,
+        default=1,
+        help="--against: also time our mppi with this many threads, interleaved (default 1: not)",
+    )
+    parser.add_argument(
         "--scaling",
         action="store_true",
         help="ms per step of each controller as K, N, cylinders, moving obstacles and P grow",
@@ -82,6 +89,10 @@ def main(argv=None):
             )
         elif not 1 <= value <= 100_000:
             parser.error(f"--{name} must be a whole number in 1 .. 100000; got {value}")
+    if args.threads != 1 and not args.against:
+        parser.error("--threads is --against's second row of ours: add --against pytorch_mppi")
+    if not 1 <= args.threads <= 64:
+        parser.error(f"--threads must be a whole number in 1 .. 64; got {args.threads}")
     if args.out and not args.scaling:
         parser.error("--out is where --scaling writes its JSON and plot; add --scaling")
     tune_malloc()  # process-wide: only entry points set it
@@ -157,27 +168,43 @@ def against(args):
     except ImportError as e:
         print(f"dcmppi timing: {e}", file=sys.stderr)
         return 2
-    ours = ClosedLoop("mppi", "forest", args.steps, perturbation="time_varying", K=args.K, N=args.N)
-    with threadpool_limits(1):
-        result = peer.compare(ours, args.steps, args.block)
+    size = dict(perturbation="time_varying", K=args.K, N=args.N)
+    ours = ClosedLoop("mppi", "forest", args.steps, **size)
+    threaded = None
+    if args.threads > 1:
+        threaded = ClosedLoop("mppi", "forest", args.steps, threads=args.threads, **size)
+    with threadpool_limits(1):  # BLAS on one thread: the plans are the same for any `threads`
+        result = peer.compare(ours, args.steps, args.block, threaded)
     if args.json:
         print(json.dumps(result, indent=2))
         return 0
     v, s = result["versions"], result["settings"]
     print(
         f"dcmppi timing --against pytorch_mppi {v['pytorch_mppi']} (torch {v['torch']}): forest, "
-        f"K={s['K']} N={s['N']}, {s['perturbation']} noise, one thread, {args.steps} steps "
+        f"K={s['K']} N={s['N']}, {s['perturbation']} noise, torch and BLAS on one thread, "
+        f"{args.steps} steps "
         f"interleaved in blocks of {args.block}"
     )
-    print(f"{'controller':<20} {'median ms':>9} {'p95 ms':>7}")
-    for name, key in (("mppi (dcmppi)", "ours"), ("pytorch_mppi", "theirs")):
-        print(f"{name:<20} {result[key]['median_ms']:9.3f} {result[key]['p95_ms']:7.3f}")
+    print(f"{'controller':<24} {'median ms':>9} {'p95 ms':>7}")
+    rows = [("mppi (dcmppi)", result["ours"]), ("pytorch_mppi", result["theirs"])]
+    if threaded:
+        t = result["threaded"]
+        rows.insert(1, (f"mppi (dcmppi, threads={t['threads']})", t))
+    for name, row in rows:
+        print(f"{name:<24} {row['median_ms']:9.3f} {row['p95_ms']:7.3f}")
     target = AGAINST_TARGETS.get((s["K"], s["N"]))
     print(
         f"pytorch_mppi / ours = {result['theirs_over_ours']:.1f}"
         + (f" (target >= {target})" if target else "")
         + f", ours / pytorch_mppi = {result['ours_over_theirs']:.3f}"
     )
+    if threaded:
+        target = THREADS_TARGETS.get((s["K"], s["N"])) if t["threads"] == 2 else None
+        print(
+            f"ours / ours with threads={t['threads']} = {t['speedup']:.2f}"
+            + (f" (target >= {target})" if target else "")
+            + f"; the same path: {'yes' if t['same_path'] else 'NO'}"
+        )
     print(f"same problem: {result['same_problem']}")
     return 0
 

@@ -298,13 +298,14 @@ class Controller:
 
     def _draws_in_pass(self):
         """Whether perturbed_rollouts may draw this step's perturbations in the pass that
-        bounds them: per-step draws into a box, and sample() as defined here (a subclass's or an
-        instance's own sample() is called instead)."""
+        bounds them: per-step draws into a box, with sample() and controls() as defined here (a
+        subclass's or an instance's own are called instead)."""
+        own = type(self).sample is Controller.sample and type(self).controls is Controller.controls
         return (
-            self.perturbation != "constant"
+            own
+            and not {"sample", "controls"} & vars(self).keys()
+            and self.perturbation != "constant"
             and self.agent.norm_axes is None
-            and type(self).sample is Controller.sample
-            and "sample" not in vars(self)
         )
 
     def _normals(self, shape, scale):
@@ -327,8 +328,8 @@ class Controller:
         x0: (3,), or (3, S) with starts = S > 1: every sample rolls out from each start.
         eps: (N, nu, K) perturbations, or None: this step's (Controller.sample); per-step draws
           into a box (dubins, unicycle) are then bounded row by row as they are drawn, with
-          the values of sample() then controls() (perturbations.draw_box), unless sample() is
-          replaced (a subclass's or an instance's: it is called).
+          the values of sample() then controls() (perturbations.draw_box), unless either is
+          replaced (a subclass's or an instance's: they are called, on one thread).
         Returns e (N, nu, K) the perturbations that remain, states (3, N + 1, S K), J (S K,),
         the importance term (K,); with sums=True also the horizon sums of e (nu, K), with
         moving=True J's moving-obstacle term (S K,) (None: 0).
@@ -348,11 +349,15 @@ class Controller:
         total = np.zeros((self.nu, K)) if sums else NO_SUMS
         if len(ranges) == 1:  # the whole batch on this thread
             with self.timer("controls"):
-                project(u, e, total)
+                if eps is None:
+                    project(u, e, total)
+                    total = [total] if sums else []
+                else:  # through controls(), a subclass's own too
+                    u, e, *total = self.controls(U0, eps, sums)
             states, J, term = self.evaluate(x0, u, starts, moving=True)
             with self.timer("importance"):
                 importance = self.importance(U0, e)
-            return e, states, J, importance, *([total] if sums else []), *([term] if moving else [])
+            return e, states, J, importance, *total, *([term] if moving else [])
         objective = self.objective
         out = np.empty((3, self.N + 1, starts, K))
         out[:, 0] = np.reshape(x0, (3, starts, -1))

@@ -147,3 +147,12 @@ def test_a_replaced_sample_is_used():
     ctrl.sample = lambda: np.zeros((ctrl.N, ctrl.nu, ctrl.K))
     ctrl.act(np.zeros(3), goal)
     assert not ctrl.diagnostics.eps.any()
+
+    class Unbounded(MPPI):  # its own controls(): the perturbations as drawn, unbounded
+        def controls(self, U0, eps, sums=False):
+            return U0[:, :, None] + eps, np.array(eps)
+
+    ctrl = Unbounded(K=70, N=9, seed=1, Sigma=1.0, perturbation="time_varying")
+    ctrl.act(np.zeros(3), goal)
+    d = ctrl.diagnostics
+    assert (np.abs(d.warm_start[None] + d.eps) > ctrl.agent.upper[0]).mean() > 0.1

@@ -335,29 +335,31 @@ class Controller:
         moving=True J's moving-obstacle term (S K,) (None: 0).
         """
         agent, U0 = self.agent, self.U
-        if eps is None and self._draws_in_pass():
-            step = self._per_step()
-            project = functools.partial(draw_box, self._key, *step, U0, agent.lower, agent.upper)
-        else:
-            if eps is None:
-                with self.timer("sample"):
-                    eps = self.sample()
-            project = functools.partial(project_columns, agent, U0, eps)
-        K = self.K if eps is None else eps.shape[2]
+        in_pass = eps is None and self._draws_in_pass()
+        if eps is None and not in_pass:
+            with self.timer("sample"):
+                eps = self.sample()
+        K = self.K if in_pass else eps.shape[2]
         ranges = parts(K, self.threads)
-        u, e = np.empty((self.N, self.nu, K)), np.empty((self.N, self.nu, K))
-        total = np.zeros((self.nu, K)) if sums else NO_SUMS
+        if in_pass or len(ranges) > 1:
+            u, e = np.empty((self.N, self.nu, K)), np.empty((self.N, self.nu, K))
+            total = np.zeros((self.nu, K)) if sums else NO_SUMS
+            if in_pass:
+                box = agent.lower, agent.upper
+                project = functools.partial(draw_box, self._key, *self._per_step(), U0, *box)
+            else:
+                project = functools.partial(project_columns, agent, U0, eps)
         if len(ranges) == 1:  # the whole batch on this thread
             with self.timer("controls"):
-                if eps is None:
+                if in_pass:
                     project(u, e, total)
-                    total = [total] if sums else []
                 else:  # through controls(), a subclass's own too
-                    u, e, *total = self.controls(U0, eps, sums)
+                    u, e, *rest = self.controls(U0, eps, sums)
+                    total = rest[0] if sums else NO_SUMS
             states, J, term = self.evaluate(x0, u, starts, moving=True)
             with self.timer("importance"):
                 importance = self.importance(U0, e)
-            return e, states, J, importance, *total, *([term] if moving else [])
+            return e, states, J, importance, *([total] if sums else []), *([term] if moving else [])
         objective = self.objective
         out = np.empty((3, self.N + 1, starts, K))
         out[:, 0] = np.reshape(x0, (3, starts, -1))

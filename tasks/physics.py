@@ -253,7 +253,6 @@ class Physics(dm_mujoco.Physics):
         obstacles at the same instant. Pedestrians plan the whole step from the robot's position
         and velocity at its start.
         """
-        m, d = self._m, self._d
         moving = moving_xy = None
         if self._walking:
             robot_xy = self._qpos[:2].copy()
@@ -267,10 +266,24 @@ class Physics(dm_mujoco.Physics):
         self._activate_near(nstep * self._opt.timestep)
         if moving is not None:
             moving_xy = np.stack([moving.real, moving.imag], axis=-1)
-        robot = np.empty((nstep, 2))  # x, y after each substep
-        qpos, mocap_xy, step1, step2 = self._qpos, self._mocap_xy, mujoco.mj_step1, mujoco.mj_step2
         # dm_control's check_invalid_state, without a context manager per step
         warnings = self._warnings.tobytes()
+        robot = self._substeps(nstep, moving_xy)
+        if self._warnings.tobytes() != warnings:
+            self._raise_warnings(np.frombuffer(warnings, self._warnings.dtype))
+        if moving is not None:
+            self._set_mocap_heading(self._moving.theta)
+        clearance = self._update_clearance(robot.view(np.complex128)[:, 0], moving)
+        self._clearance = clearance[-1]
+        self.min_clearance = min(self.min_clearance, clearance.min())
+
+    def _substeps(self, nstep, moving_xy):
+        """MuJoCo's nstep substeps (mj_step2, the mocap obstacles set to moving_xy (nstep, L, 2)
+        or left where they are with None, mj_step1), recording the first contact. Returns the
+        robot's x, y after each substep (nstep, 2)."""
+        m, d = self._m, self._d
+        robot = np.empty((nstep, 2))
+        qpos, mocap_xy, step1, step2 = self._qpos, self._mocap_xy, mujoco.mj_step1, mujoco.mj_step2
         for k in range(nstep):
             step2(m, d)
             if moving_xy is not None:
@@ -280,13 +293,7 @@ class Physics(dm_mujoco.Physics):
             robot[k, 1] = qpos[1]
             if d.ncon and not self.collided:
                 self._record_contact()
-        if self._warnings.tobytes() != warnings:
-            self._raise_warnings(np.frombuffer(warnings, self._warnings.dtype))
-        if moving is not None:
-            self._set_mocap_heading(self._moving.theta)
-        clearance = self._update_clearance(robot.view(np.complex128)[:, 0], moving)
-        self._clearance = clearance[-1]
-        self.min_clearance = min(self.min_clearance, clearance.min())
+        return robot
 
     def _raise_warnings(self, before):
         """dm_control's PhysicsError (or its log line under suppress_physics_errors) for the

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from dcmppi.bench import timing
-from dcmppi.bench.timing import cases, loop, profile, scaling
+from dcmppi.bench.timing import cases, episodes, loop, profile, scaling
 from dcmppi.bench.timing.worlds import dense_forest, world
 from dcmppi.control import make_controller
 from dcmppi.control.timer import NO_TIMER
@@ -276,3 +276,93 @@ def test_dense_forest_is_the_forest_task_up_to_its_clusters_then_grows_the_map()
     assert dense_forest(260).map_bounds.tolist() == [0.0, 0.0, 150.0, 100.0]  # 4 x the clusters
     with pytest.raises(ValueError, match="builds its own world"):
         loop.ClosedLoop("mppi", "corridor", 5, world=task)
+
+
+_SHORT = """
+description = "two rows on short forest episodes"
+task = "forest"
+noises = ["none", "control"]
+episodes = 50
+task_params = { time_limit = 4.0 }
+[[rows]]
+label = "mppi"
+controller = "mppi"
+[[rows]]
+label = "clustered"
+controller = "clustered"
+"""
+
+
+def test_the_experiment_profile_splits_steps_and_episodes_and_projects_the_run(tmp_path, capsys):
+    path = tmp_path / "short.toml"
+    path.write_text(_SHORT)
+    assert (
+        timing.main(["--profile", str(path), "--environments", "2", "--workers", "4", "--json"])
+        == 0
+    )
+    report = json.loads(capsys.readouterr().out)
+    assert report["experiment"] == "short" and report["environments"] == 2
+    rows = report["rows"]
+    assert list(rows) == ["mppi", "clustered"]
+    for label, row in rows.items():
+        assert row["episodes"] == 4  # 2 environments x 2 noise profiles
+        step = row["per_step_us"]
+        assert 0 < step["controller parts"] < step["controller"]
+        assert step["controller parts"] == pytest.approx(sum(row["parts_us"].values()))
+        env_parts = [step[name] for name, _, _ in episodes.ENV_PARTS]
+        assert all(v > 0 for v in env_parts) and sum(env_parts) < step["env.step"]
+        assert step["runner"] > 0
+        assert ("DBSCAN" in row["parts_us"]) == (label == "clustered")
+        whole = row["steps_per_episode"] * (step["controller"] + step["env.step"] + step["runner"])
+        assert row["episode_s"] == pytest.approx(
+            whole * 1e-6 + sum(row["per_episode_ms"].values()) * 1e-3
+        )
+    projection = report["projection"]
+    assert projection["episodes"] == 200  # the whole experiment: 50 x 2 noise profiles x 2 rows
+    each = 100 * sum(r["episode_s"] for r in rows.values())
+    assert projection["minutes"] == pytest.approx(each / 4 / 60)
+    assert 0 < projection["floor_minutes"] < projection["minutes"]
+    assert timing.main(["--profile", str(path), "--environments", "1"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1].split() == ["mppi", "clustered"]
+    assert "      DBSCAN" not in lines and any(line.startswith("    DBSCAN") for line in lines)
+    assert lines[-1].startswith("the experiment's 200 episodes on 2 workers: ")
+
+
+def test_a_profiled_episode_is_the_bench_episode(tmp_path):
+    from dcmppi.bench.experiments import load_experiment
+    from dcmppi.bench.results import ResultsDB
+    from dcmppi.bench.runner import run_episode
+
+    path = tmp_path / "short.toml"
+    path.write_text(_SHORT)
+    exp = load_experiment(str(path)).select(episodes=1, noises=("control",))
+    (key, spec), *_ = exp.specs()
+    db = ResultsDB(tmp_path / "p.db", exp.config())
+    one = episodes.profile_episode(spec, db, key)
+    recorded = db.row(*key)
+    db.close()
+    plain = run_episode(spec)
+    assert one["steps"] == plain["steps"] == recorded["steps"]
+    assert recorded["trace"] == plain["trace"] and recorded["outcome"] == plain["outcome"]
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--environments", "3"], "--environments is for --profile EXPERIMENT"),
+        (["--profile", "static", "--workers", "0"], "--workers must be >= 1; got 0"),
+        (["--profile", "static", "--steps", "5"], "choose --environments, not --steps"),
+    ],
+)
+def test_the_experiment_profile_refuses_bad_options_in_one_line(argv, message, capsys):
+    with pytest.raises(SystemExit, match="2"):
+        timing.main(argv)
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1
+
+
+def test_an_unknown_experiment_to_profile_is_one_line(capsys):
+    assert timing.main(["--profile", "desert"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "unknown experiment 'desert'; valid: barn, " in err[0]

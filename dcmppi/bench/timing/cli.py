@@ -1,5 +1,5 @@
-"""The options of `dcmppi timing` and its table; `--against`, `--profile`, `--fingerprint`,
-`--scaling`."""
+"""The options of `dcmppi timing` and its table; `--against`, `--profile [EXPERIMENT]`,
+`--fingerprint`, `--scaling`."""
 
 import argparse
 import json
@@ -11,12 +11,13 @@ from threadpoolctl import threadpool_limits
 from dcmppi.control import defaults
 from dcmppi.control._malloc import tune_malloc
 
-from . import cases, scaling
+from . import cases, episodes, scaling
 from .fingerprint import fingerprint, print_fingerprint
 from .loop import BLOCK, ClosedLoop, time_cases
 from .profile import print_profile, profile
 
 STEPS = 100  # control steps per case of the table, the profile, the fingerprint and --against
+ENVIRONMENTS, WORKERS = 10, 2  # --profile EXPERIMENT: environments run, workers projected
 # pytorch_mppi / ours wanted at a size (K, N), and ours on one thread / on two (issue 26)
 AGAINST_TARGETS = {(defaults.K, defaults.N): 14, (2048, 100): 12}
 THREADS_TARGETS = {(2048, 100): 1.7}
@@ -65,7 +66,22 @@ def main(argv=None):
     )
     parser.add_argument("--out", help="--scaling: write scaling.json and scaling.png here")
     parser.add_argument(
-        "--profile", action="store_true", help="where one step's time goes, in microseconds"
+        "--profile",
+        nargs="?",
+        const="",
+        metavar="EXPERIMENT",
+        help="where one step's time goes, in microseconds; with an experiment (a name or a TOML "
+        "file, as `dcmppi bench --experiment`), where its bench episodes' time goes, end to end",
+    )
+    parser.add_argument(
+        "--environments",
+        type=int,
+        help=f"--profile EXPERIMENT: environments of each row to run (default {ENVIRONMENTS})",
+    )
+    parser.add_argument(
+        "--workers",
+        type=int,
+        help=f"--profile EXPERIMENT: workers of the projected full run (default {WORKERS})",
     )
     parser.add_argument(
         "--fingerprint",
@@ -73,6 +89,8 @@ def main(argv=None):
         help="hash every closed loop's actions (identical before and after a speed change)",
     )
     args = parser.parse_args(argv)
+    if args.profile and args.steps is not None:
+        parser.error("--profile EXPERIMENT runs whole episodes: choose --environments, not --steps")
     if args.steps is None:
         args.steps = scaling.STEPS if args.scaling else STEPS
     if args.steps < 5:
@@ -93,6 +111,14 @@ def main(argv=None):
         parser.error("--threads is --against's second row of ours: add --against pytorch_mppi")
     if not 1 <= args.threads <= 64:
         parser.error(f"--threads must be a whole number in 1 .. 64; got {args.threads}")
+    for name, default in (("environments", ENVIRONMENTS), ("workers", WORKERS)):
+        value = getattr(args, name)
+        if value is None:
+            setattr(args, name, default)
+        elif not args.profile:
+            parser.error(f"--{name} is for --profile EXPERIMENT: add --profile static (or another)")
+        elif value < 1:
+            parser.error(f"--{name} must be >= 1; got {value}")
     if args.out and not args.scaling:
         parser.error("--out is where --scaling writes its JSON and plot; add --scaling")
     tune_malloc()  # process-wide: only entry points set it
@@ -101,6 +127,8 @@ def main(argv=None):
     if args.scaling:
         return scale(args)
     if args.profile:
+        return profile_experiment(args)
+    if args.profile is not None:
         results = profile(cases.PROFILE_CASES, args.steps)
         if args.json:
             print(json.dumps(results, indent=2))
@@ -206,6 +234,23 @@ def against(args):
             + f"; the same path: {'yes' if t['same_path'] else 'NO'}"
         )
     print(f"same problem: {result['same_problem']}")
+    return 0
+
+
+def profile_experiment(args):
+    """`--profile EXPERIMENT`: its bench episodes profiled end to end (episodes)."""
+    from dcmppi.bench.experiments import ExperimentError, load_experiment
+
+    try:
+        exp = load_experiment(args.profile)
+    except (ExperimentError, ValueError, OSError) as e:
+        print(f"dcmppi timing: error: {e}", file=sys.stderr)
+        return 2
+    report = episodes.profile_experiment(exp, args.environments, args.workers)
+    if args.json:
+        print(json.dumps(report, indent=2))
+    else:
+        episodes.print_profile_experiment(report)
     return 0
 
 

@@ -36,7 +36,7 @@ import time
 from pathlib import Path
 
 SCHEMA_VERSION = 5
-FIELD_METRICS = (  # the crowd-navigation field's metrics (dcmppi.bench.runner.FieldMetrics)
+FIELD_METRICS = (  # the crowd-navigation field's metrics (dcmppi.bench.metrics.FieldMetrics)
     "success",
     "collision_kind",
     "timeout",

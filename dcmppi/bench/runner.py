@@ -11,13 +11,13 @@ import dataclasses
 import functools
 import inspect
 import json
-import math
-import numbers
 import time
 import zlib
 from collections.abc import Callable
 
 import numpy as np
+
+from dcmppi.bench.metrics import Diagnosis, FieldMetrics, spl
 
 
 @dataclasses.dataclass(frozen=True)
@@ -193,168 +193,6 @@ def _task_robot(task: str, task_params: str) -> tuple:
     from dcmppi.tasks import robot
 
     return tuple(robot(task, json.loads(task_params)).items())
-
-
-class Diagnosis:
-    """Per-step readings of a controller's `diagnostics`, for any controller: attributes it
-    lacks are skipped (getattr with defaults).
-
-    ess: effective sample size; clusters: DBSCAN clusters (labels >= 0) where `labels` is
-    set; fallback: whether `chosen == -1` (Alg. 1 over all samples) where `labels` is set;
-    deviation: Tube-MPPI's real-to-nominal position distance at the start of the step, before
-    any reset (`nominal_deviation`; else |x[:2] - nominal_state[:2]| where `nominal_state` is
-    set).
-    """
-
-    def __init__(self):
-        self.ess: list[float] = []
-        self.clusters: list[int] = []
-        self.fallback: list[bool] = []
-        self.deviation: list[float] = []
-
-    def read(self, controller, state: np.ndarray) -> None:
-        """Read the diagnostics of the step that `controller` just planned from `state` (3,)."""
-        d = getattr(controller, "diagnostics", None)
-        ess = getattr(d, "ess", None)
-        if isinstance(ess, numbers.Real) and math.isfinite(ess):
-            self.ess.append(float(ess))
-        labels = getattr(d, "labels", None)
-        if labels is not None:
-            labels = np.asarray(labels)
-            self.clusters.append(_distinct(labels[labels >= 0], len(labels)))
-            self.fallback.append(getattr(d, "chosen", -1) == -1)
-        deviation = getattr(d, "nominal_deviation", None)
-        nominal = getattr(d, "nominal_state", None)
-        if isinstance(deviation, numbers.Real) and math.isfinite(deviation):
-            self.deviation.append(float(deviation))
-        elif nominal is not None:
-            self.deviation.append(float(np.hypot(*(state[:2] - np.asarray(nominal)[:2]))))
-
-    def result(self) -> dict:
-        """ess_mean, clusters_mean, fallback_share, tube_deviation_p95 (None: not recorded)."""
-
-        def mean(xs):
-            return float(np.mean(xs)) if xs else None
-
-        return {
-            "ess_mean": mean(self.ess),
-            "clusters_mean": mean(self.clusters),
-            "fallback_share": mean(self.fallback),
-            "tube_deviation_p95": float(np.percentile(self.deviation, 95))
-            if self.deviation
-            else None,
-        }
-
-
-def _distinct(values: np.ndarray, bound: int) -> int:
-    """The number of distinct values (n,): by counting where they are integers in [0, bound)
-    (DBSCAN's labels), else by sorting."""
-    if values.dtype.kind == "i" and values.max(initial=0) < bound:
-        return int(np.count_nonzero(np.bincount(values)))
-    return len(np.unique(values))
-
-
-PERSONAL_SPACE = 0.5  # [m] a pedestrian's surface this close to the robot's is in its space
-NEAR = 2.0  # [m] pedestrians this close (surface to surface) count in the speed loss
-
-
-def time_to_collision(position, velocity, radius) -> np.ndarray:
-    """Times [s] (L,) until two discs first touch at constant velocities: position, velocity
-    (L, 2) of each obstacle relative to the robot, radius (L,) the sums of the two radii.
-    0 where they touch already; inf where they are not on a collision course."""
-    p = np.asarray(position, dtype=np.float64)
-    v = np.asarray(velocity, dtype=np.float64)
-    a = np.einsum("ij,ij->i", v, v)
-    b = np.einsum("ij,ij->i", p, v)  # |p + v t|^2 = R^2: a t^2 + 2 b t + c = 0
-    c = np.einsum("ij,ij->i", p, p) - np.asarray(radius, dtype=np.float64) ** 2
-    disc = b * b - a * c
-    closing = (b < 0) & (disc >= 0) & (a > 0)
-    t = np.full(len(p), np.inf)
-    t[closing] = (-b[closing] - np.sqrt(disc[closing])) / a[closing]
-    t[c <= 0] = 0.0
-    return t
-
-
-def mean_jerk(velocity, dt: float) -> float | None:
-    """Mean norm [m/s^3] of the jerk of planar velocities (n, 2) sampled every dt [s] (second
-    differences / dt^2); None for fewer than three samples."""
-    v = np.asarray(velocity, dtype=np.float64)
-    if len(v) < 3:
-        return None
-    return float(np.linalg.norm(np.diff(v, n=2, axis=0), axis=1).mean() / dt**2)
-
-
-def spl(success: bool, start, goal, tolerance: float, path_length: float) -> float:
-    """Success weighted by path length: success x shortest / max(path_length, shortest), the
-    shortest path the straight line from start (2,) to within `tolerance` of goal (2,)."""
-    if not success:
-        return 0.0
-    shortest = max(0.0, float(np.hypot(*(np.asarray(goal) - np.asarray(start)))) - tolerance)
-    longest = max(path_length, shortest)
-    return 1.0 if longest == 0 else shortest / longest
-
-
-class FieldMetrics:
-    """The field's crowd-navigation metrics of an episode, from the simulation's truth read at
-    every control instant (the start and after every step): the robot's position and velocity
-    and the moving obstacles' positions, radii and velocities (`moving_velocity()`) from
-    `env.physics`, their preferred speeds from `env.task.world.moving_pref_speed` (nan: none,
-    as for today's Dubins arcs).
-    """
-
-    def __init__(self, env):
-        physics, world = env.physics, env.task.world
-        self.dt = env.control_timestep()
-        self.robot_radius = physics.robot_radius
-        n = len(world.moving)
-        self.pedestrians = n > 0
-        pref = np.asarray(world.moving_pref_speed, dtype=np.float64)
-        self.pref_speed = pref if np.isfinite(pref).all() else None
-        self.velocity: list[np.ndarray] = []  # the robot's planar velocity at each instant
-        self.instants = 0
-        self.min_gap = math.inf
-        self.personal = 0
-        self.min_ttc = math.inf
-        self.loss_sum = 0.0
-        self.loss_count = 0
-        self.read(physics)
-
-    def read(self, physics) -> None:
-        """Record the state of `physics` now."""
-        robot_v = physics.robot_velocity()[:2]
-        self.velocity.append(robot_v)
-        if not self.pedestrians:
-            return
-        moving = physics.moving_obstacles()
-        xy, radius = moving[:, :2], moving[:, 3]
-        velocity = physics.moving_velocity()
-        rel = xy - physics.robot_pose()[:2]
-        gap = np.hypot(rel[:, 0], rel[:, 1]) - radius - self.robot_radius
-        self.instants += 1
-        self.min_gap = min(self.min_gap, float(gap.min()))
-        self.personal += bool((gap < PERSONAL_SPACE).any())
-        ttc = time_to_collision(rel, velocity - robot_v, radius + self.robot_radius)
-        self.min_ttc = min(self.min_ttc, float(ttc.min()))
-        if self.pref_speed is not None:
-            near = gap < NEAR
-            speed = np.hypot(velocity[near, 0], velocity[near, 1])
-            self.loss_sum += float(np.sum(1.0 - speed / self.pref_speed[near]))
-            self.loss_count += int(near.sum())
-
-    def result(self) -> dict:
-        """jerk_mean [m/s^3]; with moving obstacles (else None): min_ped_gap [m] (surface to
-        surface), personal_space_share (share of the instants with a pedestrian within
-        PERSONAL_SPACE), min_ttc [s] (inf: never on a collision course); ped_speed_loss: mean
-        over instants and pedestrians within NEAR of 1 - speed / preferred speed (None without
-        preferred speeds or with none near)."""
-        crowd = self.pedestrians
-        return {
-            "jerk_mean": mean_jerk(self.velocity, self.dt),
-            "min_ped_gap": self.min_gap if crowd else None,
-            "personal_space_share": self.personal / self.instants if crowd else None,
-            "min_ttc": self.min_ttc if crowd else None,
-            "ped_speed_loss": self.loss_sum / self.loss_count if self.loss_count else None,
-        }
 
 
 class TrueFutures:

@@ -1,6 +1,7 @@
-"""The field's crowd-navigation metrics: the functions on hand-computed cases, the per-step
-recorder on a synthetic pedestrian sequence, real episodes' collision kinds, the database
-round trip, the report's table and `runner.act`'s keywords."""
+"""The field's crowd-navigation metrics: the functions on hand-computed cases, the compiled
+per-instant pass against its numpy expressions, the per-step recorder on a synthetic pedestrian
+sequence, real episodes' collision kinds, the database round trip, the report's table and
+`runner.act`'s keywords."""
 
 import math
 import re
@@ -10,18 +11,12 @@ import types
 import numpy as np
 import pytest
 
+from dcmppi.bench import metrics
 from dcmppi.bench.experiments import load_experiment
+from dcmppi.bench.metrics import FieldMetrics, mean_jerk, spl, time_to_collision
 from dcmppi.bench.report import metrics_table, write_report
 from dcmppi.bench.results import FIELD_METRICS, SCHEMA_VERSION, ResultsDB
-from dcmppi.bench.runner import (
-    EpisodeSpec,
-    FieldMetrics,
-    act,
-    mean_jerk,
-    run_episode,
-    spl,
-    time_to_collision,
-)
+from dcmppi.bench.runner import EpisodeSpec, act, run_episode
 from dcmppi.bench.stats import bootstrap_median, field_metrics
 
 
@@ -43,6 +38,48 @@ def test_mean_jerk_and_spl_by_hand():
     assert spl(True, [0, 0], [10, 0], 1.0, 12.0) == pytest.approx(9 / 12)
     assert spl(True, [0, 0], [10, 0], 1.0, 8.0) == 1.0  # shorter than the straight line
     assert spl(False, [0, 0], [10, 0], 1.0, 9.0) == 0.0
+
+
+def _numpy_instant(moving, velocity, robot_xy, robot_v, robot_radius, pref):
+    """FieldMetrics.read's values of one instant as the numpy expressions of its docstring."""
+    rel = moving[:, :2] - robot_xy
+    gap = np.hypot(rel[:, 0], rel[:, 1]) - moving[:, 3] - robot_radius
+    ttc = time_to_collision(rel, velocity - robot_v, moving[:, 3] + robot_radius)
+    near = gap < metrics.NEAR
+    loss = np.sum(1.0 - np.hypot(velocity[near, 0], velocity[near, 1]) / pref[near])
+    personal = bool((gap < metrics.PERSONAL_SPACE).any())
+    return float(gap.min()), personal, float(ttc.min()), float(loss), int(near.sum())
+
+
+def test_an_instant_is_read_in_one_pass_with_the_numpy_values_bit_for_bit():
+    rng = np.random.default_rng(7)
+    for trial in range(400):
+        n = int(rng.integers(1, 300))
+        spread = (0.5, 3.0, 20.0)[trial % 3]  # most, some or few obstacles near the robot
+        moving = np.column_stack(
+            [rng.uniform(-spread, spread, (n, 2)), rng.normal(size=n), rng.uniform(0.1, 0.5, n)]
+        )
+        velocity = rng.normal(size=(n, 2)) * (trial % 4 != 0)  # every 4th: all standing
+        robot_xy, robot_v, pref = rng.normal(size=2), rng.normal(size=2), rng.uniform(0.5, 2, n)
+        args = moving, velocity, robot_xy, robot_v, 0.3, pref
+        assert metrics._instant(*args) == _numpy_instant(*args)
+
+
+def test_the_pairwise_sum_is_numpys():
+    rng = np.random.default_rng(3)
+    for n in range(0, 700):
+        a = rng.normal(size=n) * 10.0 ** rng.integers(-3, 4, n)
+        assert metrics._pairwise_sum(a) == np.sum(a)
+
+
+def test_the_clusters_are_the_distinct_labels_at_or_above_zero():
+    rng = np.random.default_rng(5)
+    for n in (1, 5, 500):
+        labels = rng.integers(-1, n, n)
+        assert metrics._clusters(labels) == len(np.unique(labels[labels >= 0]))
+    assert metrics._clusters(np.array([-1, -1])) == 0
+    assert metrics._clusters(np.array([7, 9, 7, -1])) == 2  # beyond n: counted by sorting
+    assert metrics._clusters(np.array([0.0, 2.0, 2.0])) == 2  # not integers
 
 
 class _Physics:

@@ -4,13 +4,15 @@ The first `environments` environments of every row and noise profile of an exper
 this process as a bench worker runs them (dcmppi.bench.runner.Episode), timed:
 - per step: the controller's act(), split by its timer hook (dcmppi.control.timer) into its
   parts and the Python between them; the task's env.step, split into MuJoCo's substeps (the
-  physics' substep loop), the clearances and collision switches, the task's before_step,
-  after_step and observation, and the rest (dm_control's step, the physics' own Python); the
-  runner's bookkeeping between two steps (diagnostics, field metrics, the pose);
+  physics' substep loop), the moving obstacles' motion (their own model: arcs, pedestrians'
+  behaviours), the clearances and collision switches, the task's before_step, after_step and
+  observation, and the rest (dm_control's step, the physics' own Python); the runner's
+  bookkeeping between two steps (the diagnostics, the field metrics, and the rest: the pose,
+  the observation with any true futures);
 - per episode: its set-up (the environment, world and reset, the controller, the warm-up), its
   result, and its hand-off to the parent (pickled both ways) and row in a results database.
-The env's parts are timed by wrapping those methods on the episode's own task and physics
-(instance attributes), so the bench's code runs unchanged; the wrappers' cost (well under a
+These parts are timed by wrapping those methods on the episode's own objects (instance
+attributes), so the bench's code runs unchanged; the wrappers' cost (well under a
 microsecond each) is in the times. From the means per row it projects the whole experiment on W
 workers that never wait, and its floor: the controllers' parts and the substeps alone.
 """
@@ -29,15 +31,19 @@ from dcmppi.control.timer import StepTimer
 
 from .profile import LABELS, NESTED
 
-# (key, object ("task" or "physics"), method) timed inside env.step
+# (key, owner, method) timed inside env.step and, by the runner, between two steps; owners:
+# the env's "physics" and "task", the physics' obstacle "motion" (None without moving
+# obstacles: nothing to time), the episode's "diagnosis" and field "metrics"
 ENV_PARTS = (
     ("substeps", "physics", "_substeps"),
+    ("obstacle motion", "motion", "advance"),
     ("clearances", "physics", "_update_clearance"),
     ("collision switches", "physics", "_activate_near"),
     ("before_step", "task", "before_step"),
     ("after_step", "task", "after_step"),
     ("observation", "task", "get_observation"),
 )
+RUNNER_PARTS = (("diagnostics", "diagnosis", "read"), ("field metrics", "metrics", "read"))
 EPISODE_PARTS = ("set-up", "result", "hand-off and record")
 
 
@@ -60,15 +66,23 @@ def profile_episode(spec, db, key):
 
     Returns {"steps": int, "step": {part: seconds summed over the steps}, "episode": {part:
     seconds}, "controller parts": {label: seconds}}; "step" holds "controller", "controller
-    parts", "env.step", ENV_PARTS' keys and "runner"."""
+    parts", "env.step", ENV_PARTS' keys, "runner" and RUNNER_PARTS' keys."""
     t0 = time.perf_counter()
     episode = Episode(spec)
     setup = time.perf_counter() - t0
     sums = collections.defaultdict(float)
     env = episode.env
-    for name, owner, method in ENV_PARTS:
-        target = env.physics if owner == "physics" else env.task
-        setattr(target, method, _timed(getattr(target, method), sums, name))
+    owners = {
+        "physics": env.physics,
+        "motion": env.physics.obstacle_motion,
+        "task": env.task,
+        "diagnosis": episode.diagnosis,
+        "metrics": episode.metrics,
+    }
+    for name, owner, method in ENV_PARTS + RUNNER_PARTS:
+        if owners[owner] is not None:
+            target = owners[owner]
+            setattr(target, method, _timed(getattr(target, method), sums, name))
     timer = episode.controller.timer = StepTimer()
     walls = 0.0
     while not episode.done:
@@ -88,6 +102,7 @@ def profile_episode(spec, db, key):
         "env.step": env_step,
         **{name: sums[name] for name, _, _ in ENV_PARTS},
         "runner": walls - controller - env_step,
+        **{name: sums[name] for name, _, _ in RUNNER_PARTS},
     }
     episode_parts = {"set-up": setup, "result": t1 - t0, "hand-off and record": t2 - t1}
     return {
@@ -205,6 +220,10 @@ def print_profile_experiment(report):
     rest = [s["env.step"] - sum(s[name] for name, _, _ in ENV_PARTS) for s in step]
     line("  the rest (dm_control, physics)", rest, ".1f")
     line("runner, between steps", [s["runner"] for s in step], ".1f")
+    for name, _, _ in RUNNER_PARTS:
+        line(f"  {name}", [s[name] for s in step], ".1f")
+    rest = [s["runner"] - sum(s[name] for name, _, _ in RUNNER_PARTS) for s in step]
+    line("  the rest (pose, observation)", rest, ".1f")
     print("per episode, ms")
     for part in EPISODE_PARTS:
         line(part, [r["per_episode_ms"][part] for r in rows.values()], ".2f")

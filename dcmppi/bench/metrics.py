@@ -1,0 +1,263 @@
+"""What an episode measures at every control instant beyond its path: the controller's
+diagnostics (`Diagnosis`) and the crowd-navigation field's metrics (`FieldMetrics`), with the
+functions behind them (time to collision, jerk, SPL).
+
+FieldMetrics reads every instant in one compiled pass (`_instant`) with the values of the numpy
+expressions its docstring gives, bit for bit (tests/bench/test_field_metrics.py compares them):
+the same products and sums in the same order, libm's hypot and sqrt, and numpy's pairwise
+summation for the speed loss.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+import numba
+import numpy as np
+
+
+class Diagnosis:
+    """Per-step readings of a controller's `diagnostics`, for any controller: attributes it
+    lacks are skipped (getattr with defaults).
+
+    ess: effective sample size; clusters: DBSCAN clusters (labels >= 0) where `labels` is
+    set; fallback: whether `chosen == -1` (Alg. 1 over all samples) where `labels` is set;
+    deviation: Tube-MPPI's real-to-nominal position distance at the start of the step, before
+    any reset (`nominal_deviation`; else |x[:2] - nominal_state[:2]| where `nominal_state` is
+    set).
+    """
+
+    def __init__(self):
+        self.ess: list[float] = []
+        self.clusters: list[int] = []
+        self.fallback: list[bool] = []
+        self.deviation: list[float] = []
+
+    def read(self, controller, state: np.ndarray) -> None:
+        """Read the diagnostics of the step that `controller` just planned from `state` (3,)."""
+        d = getattr(controller, "diagnostics", None)
+        ess = getattr(d, "ess", None)
+        if isinstance(ess, numbers.Real) and math.isfinite(ess):
+            self.ess.append(float(ess))
+        labels = getattr(d, "labels", None)
+        if labels is not None:
+            self.clusters.append(_clusters(np.asarray(labels)))
+            self.fallback.append(getattr(d, "chosen", -1) == -1)
+        deviation = getattr(d, "nominal_deviation", None)
+        nominal = getattr(d, "nominal_state", None)
+        if isinstance(deviation, numbers.Real) and math.isfinite(deviation):
+            self.deviation.append(float(deviation))
+        elif nominal is not None:
+            self.deviation.append(float(np.hypot(*(state[:2] - np.asarray(nominal)[:2]))))
+
+    def result(self) -> dict:
+        """ess_mean, clusters_mean, fallback_share, tube_deviation_p95 (None: not recorded)."""
+
+        def mean(xs):
+            return float(np.mean(xs)) if xs else None
+
+        return {
+            "ess_mean": mean(self.ess),
+            "clusters_mean": mean(self.clusters),
+            "fallback_share": mean(self.fallback),
+            "tube_deviation_p95": float(np.percentile(self.deviation, 95))
+            if self.deviation
+            else None,
+        }
+
+
+def _clusters(labels: np.ndarray) -> int:
+    """The number of distinct labels >= 0 (DBSCAN's clusters; -1 marks noise)."""
+    if labels.dtype.kind == "i":
+        count = _count_labels(labels)
+        if count >= 0:
+            return count
+    return len(np.unique(labels[labels >= 0]))
+
+
+@numba.njit(cache=True)
+def _count_labels(labels):
+    """The number of distinct labels >= 0 (n,) when all are below n (DBSCAN's); else -1."""
+    seen = np.zeros(len(labels), dtype=np.bool_)
+    count = 0
+    for v in labels:
+        if v < 0:
+            continue
+        if v >= len(labels):
+            return -1
+        if not seen[v]:
+            seen[v] = True
+            count += 1
+    return count
+
+
+PERSONAL_SPACE = 0.5  # [m] a pedestrian's surface this close to the robot's is in its space
+NEAR = 2.0  # [m] pedestrians this close (surface to surface) count in the speed loss
+
+
+def time_to_collision(position, velocity, radius) -> np.ndarray:
+    """Times [s] (L,) until two discs first touch at constant velocities: position, velocity
+    (L, 2) of each obstacle relative to the robot, radius (L,) the sums of the two radii.
+    0 where they touch already; inf where they are not on a collision course."""
+    p = np.asarray(position, dtype=np.float64)
+    v = np.asarray(velocity, dtype=np.float64)
+    a = np.einsum("ij,ij->i", v, v)
+    b = np.einsum("ij,ij->i", p, v)  # |p + v t|^2 = R^2: a t^2 + 2 b t + c = 0
+    c = np.einsum("ij,ij->i", p, p) - np.asarray(radius, dtype=np.float64) ** 2
+    disc = b * b - a * c
+    closing = (b < 0) & (disc >= 0) & (a > 0)
+    t = np.full(len(p), np.inf)
+    t[closing] = (-b[closing] - np.sqrt(disc[closing])) / a[closing]
+    t[c <= 0] = 0.0
+    return t
+
+
+def mean_jerk(velocity, dt: float) -> float | None:
+    """Mean norm [m/s^3] of the jerk of planar velocities (n, 2) sampled every dt [s] (second
+    differences / dt^2); None for fewer than three samples."""
+    v = np.asarray(velocity, dtype=np.float64)
+    if len(v) < 3:
+        return None
+    return float(np.linalg.norm(np.diff(v, n=2, axis=0), axis=1).mean() / dt**2)
+
+
+def spl(success: bool, start, goal, tolerance: float, path_length: float) -> float:
+    """Success weighted by path length: success x shortest / max(path_length, shortest), the
+    shortest path the straight line from start (2,) to within `tolerance` of goal (2,)."""
+    if not success:
+        return 0.0
+    shortest = max(0.0, float(np.hypot(*(np.asarray(goal) - np.asarray(start)))) - tolerance)
+    longest = max(path_length, shortest)
+    return 1.0 if longest == 0 else shortest / longest
+
+
+class FieldMetrics:
+    """The field's crowd-navigation metrics of an episode, from the simulation's truth read at
+    every control instant (the start and after every step): the robot's position and velocity
+    and the moving obstacles' positions, radii and velocities (`moving_velocity()`) from
+    `env.physics`, their preferred speeds from `env.task.world.moving_pref_speed` (nan: none,
+    as for today's Dubins arcs).
+    """
+
+    def __init__(self, env):
+        physics, world = env.physics, env.task.world
+        self.dt = env.control_timestep()
+        self.robot_radius = physics.robot_radius
+        n = len(world.moving)
+        self.pedestrians = n > 0
+        pref = np.asarray(world.moving_pref_speed, dtype=np.float64)
+        self.pref_speed = pref if np.isfinite(pref).all() else None
+        self.velocity: list[np.ndarray] = []  # the robot's planar velocity at each instant
+        self.instants = 0
+        self.min_gap = math.inf
+        self.personal = 0
+        self.min_ttc = math.inf
+        self.loss_sum = 0.0
+        self.loss_count = 0
+        self.read(physics)
+
+    def read(self, physics) -> None:
+        """Record the state of `physics` now: with the robot's position r and velocity w, each
+        obstacle's centre p, radius R and velocity u, rel = p - r and the gap |rel| - R -
+        robot_radius (np.hypot), the instant's smallest gap, whether any is below
+        PERSONAL_SPACE, its smallest time_to_collision(rel, u - w, R + robot_radius), and with
+        preferred speeds s the sum (np.sum) of 1 - |u| / s (np.hypot) over the gaps below NEAR."""
+        robot_v = physics.robot_velocity()[:2]
+        self.velocity.append(robot_v)
+        if not self.pedestrians:
+            return
+        gap, personal, ttc, loss, near = _instant(
+            physics.moving_obstacles(),
+            physics.moving_velocity(),
+            physics.robot_pose()[:2],
+            robot_v,
+            self.robot_radius,
+            _NO_PREF if self.pref_speed is None else self.pref_speed,
+        )
+        self.instants += 1
+        self.min_gap = min(self.min_gap, gap)
+        self.personal += personal
+        self.min_ttc = min(self.min_ttc, ttc)
+        if self.pref_speed is not None:
+            self.loss_sum += loss
+            self.loss_count += near
+
+    def result(self) -> dict:
+        """jerk_mean [m/s^3]; with moving obstacles (else None): min_ped_gap [m] (surface to
+        surface), personal_space_share (share of the instants with a pedestrian within
+        PERSONAL_SPACE), min_ttc [s] (inf: never on a collision course); ped_speed_loss: mean
+        over instants and pedestrians within NEAR of 1 - speed / preferred speed (None without
+        preferred speeds or with none near)."""
+        crowd = self.pedestrians
+        return {
+            "jerk_mean": mean_jerk(self.velocity, self.dt),
+            "min_ped_gap": self.min_gap if crowd else None,
+            "personal_space_share": self.personal / self.instants if crowd else None,
+            "min_ttc": self.min_ttc if crowd else None,
+            "ped_speed_loss": self.loss_sum / self.loss_count if self.loss_count else None,
+        }
+
+
+_NO_PREF = np.zeros(0)
+
+
+@numba.njit(cache=True)
+def _instant(moving, velocity, robot_xy, robot_v, robot_radius, pref):
+    """FieldMetrics.read's values of one instant: the smallest gap (nan if any is), whether a
+    gap is below PERSONAL_SPACE, the smallest time to collision, and the sum and number of the
+    speed losses of the obstacles within NEAR (pref (L,), or empty: no losses).
+    moving: (L, 4) x, y, heading, radius; velocity: (L, 2); the robot at robot_xy (2,) moving at
+    robot_v (2,)."""
+    min_gap, personal, min_ttc = np.inf, False, np.inf
+    losses = np.empty(len(moving))
+    near = 0
+    for j in range(len(moving)):
+        px, py = moving[j, 0] - robot_xy[0], moving[j, 1] - robot_xy[1]
+        gap = math.hypot(px, py) - moving[j, 3] - robot_radius
+        if not gap >= min_gap and min_gap == min_gap:  # numpy's min: a nan stays
+            min_gap = gap
+        personal |= gap < PERSONAL_SPACE
+        vx, vy = velocity[j, 0] - robot_v[0], velocity[j, 1] - robot_v[1]
+        reach = moving[j, 3] + robot_radius
+        a = vx * vx + vy * vy
+        b = px * vx + py * vy
+        c = (px * px + py * py) - reach * reach
+        disc = b * b - a * c
+        t = np.inf
+        if b < 0 and disc >= 0 and a > 0:
+            t = (-b - math.sqrt(disc)) / a
+        if c <= 0:
+            t = 0.0
+        min_ttc = min(min_ttc, t)
+        if len(pref) and gap < NEAR:
+            losses[near] = 1.0 - math.hypot(velocity[j, 0], velocity[j, 1]) / pref[j]
+            near += 1
+    return min_gap, personal, min_ttc, 0.0 + _pairwise_sum(losses[:near]), near
+
+
+@numba.njit(cache=True)
+def _pairwise_sum(a):
+    """numpy's sum of a float64 array (n,): its pairwise summation, 8 partial sums in blocks of
+    up to 128, halves above."""
+    n = len(a)
+    if n < 8:
+        total = 0.0
+        for i in range(n):
+            total += a[i]
+        return total
+    if n <= 128:
+        r = a[:8].copy()
+        i = 8
+        while i < n - n % 8:
+            for k in range(8):
+                r[k] += a[i + k]
+            i += 8
+        total = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+        while i < n:
+            total += a[i]
+            i += 1
+        return total
+    half = n // 2
+    half -= half % 8
+    return _pairwise_sum(a[:half]) + _pairwise_sum(a[half:])

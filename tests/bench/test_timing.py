@@ -382,3 +382,13 @@ def test_an_unknown_experiment_to_profile_is_one_line(capsys):
     assert timing.main(["--profile", "desert"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "unknown experiment 'desert'; valid: barn, " in err[0]
+
+
+def test_a_row_the_bench_would_refuse_is_refused_before_any_episode(tmp_path, capsys):
+    path = tmp_path / "bad.toml"
+    path.write_text(
+        _SHORT.replace('controller = "clustered"', 'controller = "clustered"\nparams = { K = 0 }')
+    )
+    assert timing.main(["--profile", str(path), "--environments", "1"]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and len(err.strip().splitlines()) == 1 and "K must be" in err

@@ -238,12 +238,15 @@ def against(args):
 
 
 def profile_experiment(args):
-    """`--profile EXPERIMENT`: its bench episodes profiled end to end (episodes)."""
-    from dcmppi.bench.experiments import ExperimentError, load_experiment
+    """`--profile EXPERIMENT`: its bench episodes profiled end to end (episodes); a bad
+    experiment, row or world is one line, as in `dcmppi bench`."""
+    from dcmppi.bench.experiments import load_experiment
+    from dcmppi.bench.runner import check_specs
 
     try:
         exp = load_experiment(args.profile)
-    except (ExperimentError, ValueError, OSError) as e:
+        check_specs(spec for _, spec in exp.select(episodes=args.environments).specs())
+    except (ValueError, RuntimeError, OSError) as e:
         print(f"dcmppi timing: error: {e}", file=sys.stderr)
         return 2
     report = episodes.profile_experiment(exp, args.environments, args.workers)

@@ -4,8 +4,8 @@ functions behind them (time to collision, jerk, SPL).
 
 FieldMetrics reads every instant in one compiled pass (`_instant`) with the values of the numpy
 expressions its docstring gives, bit for bit (tests/bench/test_field_metrics.py compares them):
-the same products and sums in the same order, libm's hypot and sqrt, and numpy's pairwise
-summation for the speed loss.
+the same products and sums in the same order, libm's hypot, the correctly rounded square root,
+numpy's pairwise summation for the speed loss, and numpy's arithmetic on a zero divisor.
 """
 
 from __future__ import annotations
@@ -99,7 +99,8 @@ NEAR = 2.0  # [m] pedestrians this close (surface to surface) count in the speed
 def time_to_collision(position, velocity, radius) -> np.ndarray:
     """Times [s] (L,) until two discs first touch at constant velocities: position, velocity
     (L, 2) of each obstacle relative to the robot, radius (L,) the sums of the two radii.
-    0 where they touch already; inf where they are not on a collision course."""
+    0 where they touch already; inf where they are not on a collision course. (FieldMetrics
+    computes the same values in its own compiled pass.)"""
     p = np.asarray(position, dtype=np.float64)
     v = np.asarray(velocity, dtype=np.float64)
     a = np.einsum("ij,ij->i", v, v)
@@ -202,7 +203,7 @@ class FieldMetrics:
 _NO_PREF = np.zeros(0)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _instant(moving, velocity, robot_xy, robot_v, robot_radius, pref):
     """FieldMetrics.read's values of one instant: the smallest gap (nan if any is), whether a
     gap is below PERSONAL_SPACE, the smallest time to collision, and the sum and number of the
@@ -210,7 +211,7 @@ def _instant(moving, velocity, robot_xy, robot_v, robot_radius, pref):
     moving: (L, 4) x, y, heading, radius; velocity: (L, 2); the robot at robot_xy (2,) moving at
     robot_v (2,)."""
     min_gap, personal, min_ttc = np.inf, False, np.inf
-    losses = np.empty(len(moving))
+    losses = np.empty(len(moving) if len(pref) else 0)
     near = 0
     for j in range(len(moving)):
         px, py = moving[j, 0] - robot_xy[0], moving[j, 1] - robot_xy[1]
@@ -236,7 +237,7 @@ def _instant(moving, velocity, robot_xy, robot_v, robot_radius, pref):
     return min_gap, personal, min_ttc, 0.0 + _pairwise_sum(losses[:near]), near
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _pairwise_sum(a):
     """numpy's sum of a float64 array (n,): its pairwise summation, 8 partial sums in blocks of
     up to 128, halves above."""

@@ -161,6 +161,7 @@ def test_a_file_by_path_takes_its_name_from_the_stem(tmp_path):
         (MINIMAL + MINIMAL[MINIMAL.index("[[") :], "rows[1].label", "'mppi' is used twice"),
         (MINIMAL + 'label = "a,b"\n', "rows[0].label", "no comma"),
         ('reference = "dc"\n' + MINIMAL, "reference", "'dc' is no row label"),
+        ('selected = ["dc"]\n' + MINIMAL, "selected", "'dc': no row label; labels: mppi"),
         (MINIMAL + "params = { seed = 3 }\n", "rows[0].params.seed", "per episode"),
         (MINIMAL + "params = { when = 1979-05-27 }\n", "rows[0].params.when", "not a number"),
         (MINIMAL + "paper.loud = { collisions = 1 }\n", "rows[0].paper.loud", "unknown noise"),

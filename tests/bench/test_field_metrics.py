@@ -6,6 +6,7 @@ sequence, real episodes' collision kinds, the database round trip, the report's 
 import math
 import re
 import sqlite3
+import struct
 import types
 
 import numpy as np
@@ -51,18 +52,32 @@ def _numpy_instant(moving, velocity, robot_xy, robot_v, robot_radius, pref):
     return float(gap.min()), personal, float(ttc.min()), float(loss), int(near.sum())
 
 
+def _bits(values):
+    """The values as their IEEE bits (a nan's sign aside), so that -0.0 differs from 0.0."""
+    return [v if isinstance(v, bool | int) else struct.pack("<d", abs(v) if v != v else v)
+            for v in values]  # fmt: skip
+
+
 def test_an_instant_is_read_in_one_pass_with_the_numpy_values_bit_for_bit():
     rng = np.random.default_rng(7)
-    for trial in range(400):
-        n = int(rng.integers(1, 300))
-        spread = (0.5, 3.0, 20.0)[trial % 3]  # most, some or few obstacles near the robot
-        moving = np.column_stack(
-            [rng.uniform(-spread, spread, (n, 2)), rng.normal(size=n), rng.uniform(0.1, 0.5, n)]
-        )
-        velocity = rng.normal(size=(n, 2)) * (trial % 4 != 0)  # every 4th: all standing
-        robot_xy, robot_v, pref = rng.normal(size=2), rng.normal(size=2), rng.uniform(0.5, 2, n)
-        args = moving, velocity, robot_xy, robot_v, 0.3, pref
-        assert metrics._instant(*args) == _numpy_instant(*args)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for trial in range(400):
+            n = int(rng.integers(1, 300))
+            spread = (0.5, 3.0, 20.0)[trial % 3]  # most, some or few obstacles near the robot
+            moving = np.column_stack(
+                [rng.uniform(-spread, spread, (n, 2)), rng.normal(size=n), rng.uniform(0.1, 0.5, n)]
+            )
+            velocity = rng.normal(size=(n, 2)) * (trial % 4 != 0)  # every 4th: all standing
+            robot_xy, robot_v, pref = rng.normal(size=2), rng.normal(size=2), rng.uniform(0.5, 2, n)
+            if trial % 5 == 0:  # -0.0, a zero preferred speed (its loss -inf or nan), a nan
+                velocity[: n // 2] *= -0.0
+                pref[:: max(1, n // 4)] = 0.0
+                moving[-1, 0] = np.nan if trial % 10 == 0 else moving[-1, 0]
+            args = moving, velocity, robot_xy, robot_v, 0.3, pref
+            assert _bits(metrics._instant(*args)) == _bits(_numpy_instant(*args))
+            # without preferred speeds: the same gap, personal space and time, no losses
+            got = metrics._instant(*args[:-1], np.zeros(0))
+            assert _bits(got) == _bits(_numpy_instant(*args)[:3]) + _bits((0.0, 0))
 
 
 def test_the_pairwise_sum_is_numpys():

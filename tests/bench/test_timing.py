@@ -369,6 +369,7 @@ def test_a_profiled_episode_is_the_bench_episode(tmp_path):
         (["--environments", "3"], "--environments is for --profile EXPERIMENT"),
         (["--profile", "static", "--workers", "0"], "--workers must be >= 1; got 0"),
         (["--profile", "static", "--steps", "5"], "choose --environments, not --steps"),
+        (["--profile", "static", "--scaling"], "--profile EXPERIMENT runs on its own"),
     ],
 )
 def test_the_experiment_profile_refuses_bad_options_in_one_line(argv, message, capsys):

@@ -90,6 +90,13 @@ class Experiment:
         selected = tuple(data.pop("selected", ()))
         args = parse(data, source, resolve)
         rows = tuple(Row(**row) for row in args.pop("rows"))
+        labels = [row.label for row in rows]
+        unknown = [label for label in selected if label not in labels]
+        if unknown:  # a stored database's selection, or a hand-written one
+            raise ExperimentError(
+                source, "selected", f"{', '.join(map(repr, unknown))}: no row label; labels: "
+                f"{', '.join(labels)}"
+            )  # fmt: skip
         return cls(**args, rows=rows, selected=selected)
 
     def to_dict(self) -> dict:

@@ -91,6 +91,10 @@ def main(argv=None):
     args = parser.parse_args(argv)
     if args.profile and args.steps is not None:
         parser.error("--profile EXPERIMENT runs whole episodes: choose --environments, not --steps")
+    if args.profile and (args.against or args.scaling or args.fingerprint):
+        parser.error(
+            "--profile EXPERIMENT runs on its own: drop --against, --scaling, --fingerprint"
+        )
     if args.steps is None:
         args.steps = scaling.STEPS if args.scaling else STEPS
     if args.steps < 5:
@@ -245,7 +249,8 @@ def profile_experiment(args):
 
     try:
         exp = load_experiment(args.profile)
-        check_specs(spec for _, spec in exp.select(episodes=args.environments).specs())
+        sample = exp.select(episodes=min(args.environments, exp.episodes))
+        check_specs(spec for _, spec in sample.specs())
     except (ValueError, RuntimeError, OSError) as e:
         print(f"dcmppi timing: error: {e}", file=sys.stderr)
         return 2

@@ -10,7 +10,8 @@ this process as a bench worker runs them (dcmppi.bench.runner.Episode), timed:
   bookkeeping between two steps (the diagnostics, the field metrics, and the rest: the pose,
   the observation with any true futures);
 - per episode: its set-up (the environment, world and reset, the controller, the warm-up), its
-  result, and its hand-off to the parent (pickled both ways) and row in a results database.
+  result, and its hand-off to the parent (the result pickled and unpickled) and row in a
+  results database.
 These parts are timed by wrapping those methods on the episode's own objects (instance
 attributes), so the bench's code runs unchanged; the wrappers' cost (well under a
 microsecond each) is in the times. From the means per row it projects the whole experiment on W
@@ -18,6 +19,7 @@ workers that never wait, and its floor: the controllers' parts and the substeps 
 """
 
 import collections
+import itertools
 import pickle
 import tempfile
 import time
@@ -65,8 +67,8 @@ def profile_episode(spec, db, key):
     """Run one episode of `spec` as a worker does and record it in `db` (a ResultsDB) under `key`.
 
     Returns {"steps": int, "step": {part: seconds summed over the steps}, "episode": {part:
-    seconds}, "controller parts": {label: seconds}}; "step" holds "controller", "controller
-    parts", "env.step", ENV_PARTS' keys, "runner" and RUNNER_PARTS' keys."""
+    seconds}, "labels": {timer label: seconds}}; "step" holds "controller", "controller parts"
+    (the timed labels' sum), "env.step", ENV_PARTS' keys, "runner" and RUNNER_PARTS' keys."""
     t0 = time.perf_counter()
     episode = Episode(spec)
     setup = time.perf_counter() - t0
@@ -109,7 +111,7 @@ def profile_episode(spec, db, key):
         "steps": len(episode.ctrl_s),
         "step": step,
         "episode": episode_parts,
-        "controller parts": parts,
+        "labels": parts,
     }
 
 
@@ -127,13 +129,13 @@ def profile_experiment(exp, environments, workers):
     with threadpool_limits(1), tempfile.TemporaryDirectory() as tmp:
         db = ResultsDB(Path(tmp) / "profile.db", sample.config())
         try:
-            Episode(next(sample.specs())[1])  # first calls (compilation caches, imports) untimed
+            _warm_up(sample)
             for key, spec in sample.specs():
                 one = profile_episode(spec, db, key)
                 row = sums.setdefault(key[1], _empty())
                 row["episodes"] += 1
                 row["steps"] += one["steps"]
-                for group in ("step", "episode", "controller parts"):
+                for group in ("step", "episode", "labels"):
                     for part, seconds in one[group].items():
                         row[group][part] += seconds
         finally:
@@ -163,13 +165,20 @@ def profile_experiment(exp, environments, workers):
     }
 
 
+def _warm_up(exp):
+    """One untimed step of every row and noise profile of `exp`'s first environment: a worker
+    pays the first calls (compilation caches, imports) once, not once per episode."""
+    for _, spec in itertools.islice(exp.specs(), len(exp.noises) * len(exp.labels)):
+        Episode(spec).step()
+
+
 def _empty():
     return {
         "episodes": 0,
         "steps": 0,
         "step": collections.defaultdict(float),
         "episode": collections.defaultdict(float),
-        "controller parts": collections.defaultdict(float),
+        "labels": collections.defaultdict(float),
     }
 
 
@@ -182,7 +191,7 @@ def _means(row):
         "episodes": episodes,
         "steps_per_episode": steps / episodes,
         "per_step_us": per_step,
-        "parts_us": {label: 1e6 * s / steps for label, s in row["controller parts"].items()},
+        "parts_us": {label: 1e6 * s / steps for label, s in row["labels"].items()},
         "per_episode_ms": per_episode,
         "episode_s": (whole + sum(row["episode"].values())) / episodes,
     }
@@ -195,8 +204,9 @@ def print_profile_experiment(report):
     seen = {label for r in rows.values() for label in r["parts_us"]}
     parts = [label for label in LABELS if label in seen] + sorted(seen - set(LABELS))
     print(
-        f"dcmppi timing --profile {report['experiment']}: {report['environments']} environments "
-        "of every row and noise profile, run as a worker runs them, one thread"
+        f"dcmppi timing --profile {report['experiment']}: {report['environments']} "
+        f"environment{'s' if report['environments'] > 1 else ''} of every row and noise profile, "
+        "run as a worker runs them, one thread"
     )
     width = max(11, *(len(label) + 2 for label in labels))
     print(f"{'':<34}" + "".join(f"{label:>{width}}" for label in labels))

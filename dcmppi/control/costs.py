@@ -33,6 +33,8 @@ def valid_cylinders(cylinders, name, columns=3, unobserved=None):
     cylinders = np.asarray(cylinders, dtype=float)
     if cylinders.ndim != 2 or cylinders.shape[1] != columns:
         raise ValueError(f"{name} must have shape (rows, {columns}); got {cylinders.shape}")
+    if not len(cylinders):  # no rows (a map without moving obstacles): nothing to check
+        return cylinders
     finite = np.isfinite(cylinders)
     if unobserved is not None:
         finite[:, unobserved] |= np.isnan(cylinders[:, unobserved])

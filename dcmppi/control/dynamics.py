@@ -57,6 +57,12 @@ def dubins_step(state, omega, v, dt):
       (..., 3) the next state (theta not wrapped).
     """
     state = np.asarray(state, dtype=float)
+    if state.shape == (3,) and np.ndim(omega) == 0:  # one state: the same operations on scalars
+        a = 0.5 * float(omega) * dt
+        step = v * dt * (_sinc_series(a) if abs(a) < _SINC_SERIES_MAX else np.sinc(a / np.pi))
+        heading = state[2] + a
+        x, y = state[0] + step * np.cos(heading), state[1] + step * np.sin(heading)
+        return np.array([x, y, state[2] + 2.0 * a])
     a = 0.5 * np.asarray(omega, dtype=float) * dt
     step = v * dt * sinc(a)
     heading = state[..., 2] + a

@@ -97,3 +97,13 @@ def test_obstacle_futures_equal_the_closed_form_arcs():
         axis=-1,
     )
     np.testing.assert_allclose(obstacle_futures(pose, v, w, n, dt), expected, rtol=0, atol=1e-12)
+
+
+def test_one_state_steps_as_a_batch_of_one_bit_for_bit():
+    rng = np.random.default_rng(11)
+    for k in range(2000):
+        state = rng.normal(size=3) * (10.0, 10.0, 4.0)
+        omega = 0.0 if k % 9 == 0 else rng.normal() * (0.05, 3.0)[k % 2]  # both sinc branches
+        one = dubins_step(state, omega, 1.0, 0.1)
+        batch = dubins_step(state[None], np.array([omega]), 1.0, 0.1)[0]
+        assert one.shape == (3,) and one.tobytes() == batch.tobytes()

@@ -2,8 +2,9 @@
 diagnostics (`Diagnosis`) and the crowd-navigation field's metrics (`FieldMetrics`), with the
 functions behind them (time to collision, jerk, SPL).
 
-FieldMetrics reads every instant in one compiled pass (`_instant`) with the values of the numpy
-expressions its docstring gives, bit for bit (tests/bench/test_field_metrics.py compares them):
+FieldMetrics reads every instant in one compiled pass (`_instant`, with time_to_collision's
+`_ttc`) with the values of the numpy expressions its docstring gives, bit for bit
+(tests/bench/test_field_metrics.py compares them):
 the same products and sums in the same order, libm's hypot, the correctly rounded square root,
 numpy's pairwise summation for the speed loss, and numpy's arithmetic on a zero divisor.
 """
@@ -99,19 +100,33 @@ NEAR = 2.0  # [m] pedestrians this close (surface to surface) count in the speed
 def time_to_collision(position, velocity, radius) -> np.ndarray:
     """Times [s] (L,) until two discs first touch at constant velocities: position, velocity
     (L, 2) of each obstacle relative to the robot, radius (L,) the sums of the two radii.
-    0 where they touch already; inf where they are not on a collision course. (FieldMetrics
-    computes the same values in its own compiled pass.)"""
-    p = np.asarray(position, dtype=np.float64)
-    v = np.asarray(velocity, dtype=np.float64)
-    a = np.einsum("ij,ij->i", v, v)
-    b = np.einsum("ij,ij->i", p, v)  # |p + v t|^2 = R^2: a t^2 + 2 b t + c = 0
-    c = np.einsum("ij,ij->i", p, p) - np.asarray(radius, dtype=np.float64) ** 2
-    disc = b * b - a * c
-    closing = (b < 0) & (disc >= 0) & (a > 0)
-    t = np.full(len(p), np.inf)
-    t[closing] = (-b[closing] - np.sqrt(disc[closing])) / a[closing]
-    t[c <= 0] = 0.0
+    0 where they touch already; inf where they are not on a collision course."""
+    p = np.ascontiguousarray(position, dtype=np.float64)
+    v = np.ascontiguousarray(velocity, dtype=np.float64)
+    reach = np.broadcast_to(np.asarray(radius, dtype=np.float64), (len(p),))
+    return _times_to_collision(p, v, np.ascontiguousarray(reach))
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _times_to_collision(p, v, reach):
+    t = np.empty(len(p))
+    for j in range(len(p)):
+        t[j] = _ttc(p[j, 0], p[j, 1], v[j, 0], v[j, 1], reach[j])
     return t
+
+
+@numba.njit(inline="always", error_model="numpy")
+def _ttc(px, py, vx, vy, reach):
+    """time_to_collision of one disc: |p + v t| = reach, a t^2 + 2 b t + c = 0."""
+    a = vx * vx + vy * vy
+    b = px * vx + py * vy
+    c = (px * px + py * py) - reach * reach
+    disc = b * b - a * c
+    if c <= 0:
+        return 0.0
+    if b < 0 and disc >= 0 and a > 0:
+        return (-b - math.sqrt(disc)) / a
+    return np.inf
 
 
 def mean_jerk(velocity, dt: float) -> float | None:
@@ -220,17 +235,7 @@ def _instant(moving, velocity, robot_xy, robot_v, robot_radius, pref):
             min_gap = gap
         personal |= gap < PERSONAL_SPACE
         vx, vy = velocity[j, 0] - robot_v[0], velocity[j, 1] - robot_v[1]
-        reach = moving[j, 3] + robot_radius
-        a = vx * vx + vy * vy
-        b = px * vx + py * vy
-        c = (px * px + py * py) - reach * reach
-        disc = b * b - a * c
-        t = np.inf
-        if b < 0 and disc >= 0 and a > 0:
-            t = (-b - math.sqrt(disc)) / a
-        if c <= 0:
-            t = 0.0
-        min_ttc = min(min_ttc, t)
+        min_ttc = min(min_ttc, _ttc(px, py, vx, vy, moving[j, 3] + robot_radius))
         if len(pref) and gap < NEAR:
             losses[near] = 1.0 - math.hypot(velocity[j, 0], velocity[j, 1]) / pref[j]
             near += 1

@@ -45,7 +45,15 @@ def _numpy_instant(moving, velocity, robot_xy, robot_v, robot_radius, pref):
     """FieldMetrics.read's values of one instant as the numpy expressions of its docstring."""
     rel = moving[:, :2] - robot_xy
     gap = np.hypot(rel[:, 0], rel[:, 1]) - moving[:, 3] - robot_radius
-    ttc = time_to_collision(rel, velocity - robot_v, moving[:, 3] + robot_radius)
+    v = velocity - robot_v
+    a, b = np.einsum("ij,ij->i", v, v), np.einsum("ij,ij->i", rel, v)
+    c = np.einsum("ij,ij->i", rel, rel) - (moving[:, 3] + robot_radius) ** 2
+    disc = b * b - a * c
+    closing = (b < 0) & (disc >= 0) & (a > 0)
+    ttc = np.full(len(rel), np.inf)
+    ttc[closing] = (-b[closing] - np.sqrt(disc[closing])) / a[closing]
+    ttc[c <= 0] = 0.0
+    assert _bits(time_to_collision(rel, v, moving[:, 3] + robot_radius)) == _bits(ttc)
     near = gap < metrics.NEAR
     loss = np.sum(1.0 - np.hypot(velocity[near, 0], velocity[near, 1]) / pref[near])
     personal = bool((gap < metrics.PERSONAL_SPACE).any())

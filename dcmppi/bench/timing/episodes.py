@@ -15,7 +15,7 @@ this process as a bench worker runs them (dcmppi.bench.runner.Episode), timed:
 These parts are timed by wrapping those methods on the episode's own objects (instance
 attributes), so the bench's code runs unchanged; the wrappers' cost (well under a
 microsecond each) is in the times. From the means per row it projects the whole experiment on W
-workers that never wait, and its floor: the controllers' parts and the substeps alone.
+workers that never wait, and its floor: the controllers' parts and the substep loop alone.
 """
 
 import collections
@@ -226,7 +226,11 @@ def print_profile_experiment(report):
     line("  between its parts", [s["controller"] - s["controller parts"] for s in step], ".1f")
     line("env.step", [s["env.step"] for s in step], ".1f")
     for name, _, _ in ENV_PARTS:
-        line(f"  {name}{' (MuJoCo)' if name == 'substeps' else ''}", [s[name] for s in step], ".1f")
+        line(
+            f"  {name}{' (MuJoCo, its loop)' if name == 'substeps' else ''}",
+            [s[name] for s in step],
+            ".1f",
+        )
     rest = [s["env.step"] - sum(s[name] for name, _, _ in ENV_PARTS) for s in step]
     line("  the rest (dm_control, physics)", rest, ".1f")
     line("runner, between steps", [s["runner"] for s in step], ".1f")
@@ -241,6 +245,6 @@ def print_profile_experiment(report):
     p = report["projection"]
     print(
         f"the experiment's {p['episodes']} episodes on {report['workers']} workers: "
-        f"{p['minutes']:.1f} min; with only the controllers' parts and MuJoCo's substeps: "
+        f"{p['minutes']:.1f} min; with only the controllers' parts and the substep loop: "
         f"{p['floor_minutes']:.1f} min"
     )

@@ -7,6 +7,7 @@ Subclasses only say how a world is drawn; `PedestrianNavigation` is the corridor
 """
 
 import collections
+import math
 
 import numpy as np
 from dm_control.rl import control
@@ -209,7 +210,7 @@ class Navigation(control.Task):
 
     def before_step(self, action, physics):
         u = np.asarray(action, dtype=np.float64).reshape(-1)
-        if u.shape != (self.agent.nu,) or not np.isfinite(u).all():
+        if u.shape != (self.agent.nu,) or not all(map(math.isfinite, u.tolist())):
             raise ValueError(
                 f"action must be {self.agent.nu} finite number(s) {self.agent.controls} "
                 f"(agent {self.agent.name!r}), got {action!r}"

@@ -13,11 +13,13 @@ import math
 from importlib import resources
 
 import mujoco
+import numba
 import numpy as np
 from dm_control import mujoco as dm_mujoco
 from dm_control.mujoco.wrapper import core
 
 from dcmppi.control import defaults
+from dcmppi.control.libm import cabs
 
 from . import pedestrians
 from .arcs import DubinsObstacles
@@ -72,6 +74,27 @@ def _set_cylinders(model, ids, radius, half_height=OBSTACLE_HALF_HEIGHT):
     model.geom_aabb[ids, 3] = radius
     model.geom_aabb[ids, 4] = radius
     model.geom_aabb[ids, 5] = half_height
+
+
+@numba.njit(cache=True)
+def _static_clearance(robot, solid_z, solid_r, radius):
+    """The nearest static surface (n,) from robot centres (n,) complex, before the robot's
+    radius, and each cylinder's clearance from the last centre (M,): the values of numpy's
+    each = np.abs(robot[:, None] - solid_z) - solid_r, each.min(axis=1) and each[-1] - radius."""
+    n, count = len(robot), len(solid_z)
+    nearest, gaps = np.empty(n), np.empty(count)
+    for i in range(n):
+        x, y = robot[i].real, robot[i].imag
+        for j in range(count):
+            gaps[j] = cabs(x - solid_z[j].real, y - solid_z[j].imag) - solid_r[j]
+        low, unordered = np.inf, False  # numpy's min: nan when any is nan
+        for j in range(count):
+            if gaps[j] < low:
+                low = gaps[j]
+            elif gaps[j] != gaps[j]:
+                unordered = True
+        nearest[i] = np.nan if unordered else low
+    return nearest, gaps - radius
 
 
 class Physics(dm_mujoco.Physics):
@@ -334,10 +357,9 @@ class Physics(dm_mujoco.Physics):
         radius = self.robot_radius
         clearance = None
         if len(self._solid_r):
-            each = np.abs(robot[:, None] - self._solid_z)
-            each -= self._solid_r
-            self._static_clearance = each[-1] - radius
-            clearance = each.min(axis=1)
+            clearance, self._static_clearance = _static_clearance(
+                robot, self._solid_z, self._solid_r, radius
+            )
         else:
             self._static_clearance = self._solid_r
         if moving is not None:
@@ -368,7 +390,11 @@ class Physics(dm_mujoco.Physics):
 
     def robot_position(self):
         """x, y of the robot (floats)."""
-        return self._qpos[0].item(), self._qpos[1].item()
+        return tuple(self._qpos[:2].tolist())
+
+    def time(self):
+        """The simulation time [s] (dm_control's, without its wrappers)."""
+        return self._d.time
 
     def robot_velocity(self):
         """(3,) world-frame vx, vy and yaw rate."""

@@ -23,12 +23,14 @@ PACKAGES = {
 # What each package may import of the rest of dcmppi, anywhere (functions included).
 MAY_IMPORT = {
     "dcmppi.control": (),
-    # the robots' models (dynamics: the motion they are built on), numbers and checks, and the
-    # pedestrians' social force (a pure numba model the `social` predictor shares); no planner
+    # the robots' models (dynamics: the motion they are built on), numbers and checks, compiled
+    # math (libm), and the pedestrians' social force (a pure numba model the `social` predictor
+    # shares); no planner
     "dcmppi.tasks": (
         "dcmppi.control.agents",
         "dcmppi.control.defaults",
         "dcmppi.control.dynamics",
+        "dcmppi.control.libm",
         "dcmppi.control.social",
         "dcmppi.control.validation",
     ),

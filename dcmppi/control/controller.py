@@ -230,7 +230,7 @@ class Controller:
         goal = np.asarray(goal, dtype=float)
         if state.shape != (3,) or goal.shape != (2,):
             raise ValueError(f"state must be (3,) and goal (2,); got {state.shape}, {goal.shape}")
-        if not (np.abs(state) < MAX_COORDINATE).all() or not (np.abs(goal) < MAX_COORDINATE).all():
+        if not all(abs(v) < MAX_COORDINATE for v in (*state.tolist(), *goal.tolist())):  # nan too
             raise ValueError(
                 f"state and goal must be finite and within {MAX_COORDINATE:.0e} (m, rad); "
                 f"got {state}, {goal}"
@@ -420,9 +420,17 @@ class Controller:
         plan: (N, nu). Returns plan[0] (nu,) in the agent's bounds (a weighted mean of bounded
         controls may leave them by a rounding error).
         """
-        self.U = np.concatenate([plan[1:], plan[-1:]])
+        self.U = shifted(plan)
         self.diagnostics.plan = plan
         return bound(self.agent, plan[0])
+
+
+def shifted(plan):
+    """The next step's warm start: plan (N, nu) one step on, its last row repeated."""
+    out = np.empty_like(plan)
+    out[:-1] = plan[1:]
+    out[-1] = plan[-1]
+    return out
 
 
 def temperature_param(value):
@@ -465,6 +473,8 @@ def observed_velocity(velocity, moving):
             f"moving_velocity must have shape ({rows}, 2), one row per row of moving; "
             f"got {velocity.shape}"
         )
+    if not rows:  # no moving obstacles: nothing to check or select
+        return velocity
     infinite = np.isinf(velocity).any(axis=1)
     if infinite.any():
         raise ValueError(

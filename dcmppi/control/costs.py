@@ -48,6 +48,12 @@ def valid_cylinders(cylinders, name, columns=3, unobserved=None):
     return cylinders[cylinders[:, -1] > 0]
 
 
+def _same(values, reference):
+    """Whether `values` as float64 have the shape and the bytes of the array `reference`."""
+    values = np.asarray(values, dtype=float)
+    return values.shape == reference.shape and values.tobytes() == reference.tobytes()
+
+
 class OccupancyGrid:
     """Static cylinders inflated by the robot radius, rasterised conservatively.
 
@@ -118,14 +124,13 @@ class OccupancyGrid:
         self._cells = (flat, self.shape[1], self.origin, limit, 1.0 / resolution)
 
     def matches(self, static, bounds=None):
-        """True when `static` and `bounds` are those this grid was built from (cheap equality)."""
-        if (bounds is None) != (self.bounds is None) or (
-            bounds is not None and not np.array_equal(bounds, self.bounds)
-        ):
+        """True when `static` and `bounds` are those this grid was built from: the same shapes
+        and bytes (a zero of the other sign gives False: the same grid is built again)."""
+        if (bounds is None) != (self.bounds is None) or (static is None) != (self.source is None):
             return False
-        if static is None or self.source is None:
-            return static is None and self.source is None
-        return np.shape(static) == self.source.shape and np.array_equal(static, self.source)
+        return (bounds is None or _same(bounds, self.bounds)) and (
+            static is None or _same(static, self.source)
+        )
 
     def lookup(self, x, y):
         """Occupancy at points. x, y: (...) coordinates [m]. Returns (...) bool."""

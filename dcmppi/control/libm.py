@@ -1,12 +1,16 @@
-"""sin, cos and log for compiled loops that vectorise: fdlibm's kernels without branches.
+"""sin, cos and log for compiled loops that vectorise: fdlibm's kernels without branches; and
+numpy's complex absolute value.
 
 numba calls libm's sin, cos and log one element at a time, so a loop that takes them does not
 vectorise. These are fdlibm's polynomials (k_sin.c, k_cos.c, e_log.c; errors below 1 ulp of
 their reduced arguments) behind branch-free argument reductions: within 2 ulp of libm for
 |x| < 1e5 (sincos) and on (0, 1] (log_unit), the same values on every machine (no fused
 multiply-add: numba compiles without fast-math). The rollouts (dcmppi.control.dynamics) and the
-perturbation draws (dcmppi.control.perturbations) use them.
+perturbation draws (dcmppi.control.perturbations) use them. `cabs` is numpy's np.abs of a
+complex number as its SIMD loop computes it (the physics' clearances, tasks/physics.py).
 """
+
+import math
 
 import numba
 import numpy as np
@@ -85,3 +89,32 @@ def log_unit(u):
     t2 = z * (_LG1 + w * (_LG3 + w * (_LG5 + w * _LG7)))
     hfsq = 0.5 * f * f
     return k * _LN2_HI - ((hfsq - (s * (hfsq + (t2 + t1)) + k * _LN2_LO)) - f)
+
+
+@intrinsic
+def fma(typingctx, a, b, c):
+    """a b + c rounded once (LLVM's fma: the processor's instruction, or exact in software)."""
+
+    def codegen(context, builder, signature, args):
+        d = ir.DoubleType()
+        fn = builder.module.declare_intrinsic("llvm.fma", [d], ir.FunctionType(d, [d, d, d]))
+        return builder.call(fn, args)
+
+    return types.float64(types.float64, types.float64, types.float64), codegen
+
+
+@numba.njit(inline="always")
+def cabs(x, y):
+    """|x + iy| as numpy's complex absolute computes it with SIMD (numpy 2's OpCabs, whose
+    MulAdd is fused on processors with FMA): larger * sqrt(ratio^2 + 1), inf where either part
+    is inf, else nan where either is nan, 0 where both are 0."""
+    re, im = abs(x), abs(y)
+    if math.isinf(re) or math.isinf(im):
+        return np.inf
+    if re != re or im != im:
+        return np.nan
+    larger, smaller = max(re, im), min(re, im)
+    if larger == 0.0:
+        return 0.0
+    ratio = smaller / larger
+    return math.sqrt(fma(ratio, ratio, 1.0)) * larger

@@ -19,12 +19,13 @@ from numba.extending import overload
 ALIGN = 64  # samples: whole cache lines per part, and BLAS's row blocks (4 or 8) kept
 
 
+@functools.cache
 def parts(k, threads):
     """At most `threads` ranges (j0, j1) that cover 0..k in order, the boundaries at multiples
     of ALIGN (one range when k <= ALIGN)."""
     size = -(-k // threads)
     size = -(-size // ALIGN) * ALIGN
-    return [(j, min(j + size, k)) for j in range(0, k, size)]
+    return tuple((j, min(j + size, k)) for j in range(0, k, size))
 
 
 @functools.cache

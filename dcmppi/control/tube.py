@@ -26,6 +26,8 @@ import numba
 import numpy as np
 
 from .agents.dubins import Dubins, jacobian_terms
+from .agents.projection import bound
+from .controller import shifted
 from .diagnostics import TubeDiagnostics
 from .dynamics import wrap_angle
 from .mppi import MPPI, effective_sample_size, mppi_update
@@ -133,9 +135,9 @@ class TubeMPPI(MPPI):
 
     def _solve(self, state):
         z = state.copy() if self.nominal is None else self.nominal
-        deviation = float(np.hypot(*(state[:2] - z[:2])))  # tracking error of the last step
+        deviation = float(np.hypot(state[0] - z[0], state[1] - z[1]))  # the last step's error
         timer = self.timer
-        eps, states, J, S, reset = self._two_solves(z, state)
+        eps, states, J, S, reset = self._two_solves(z, state, deviation)
         if reset:
             z = state.copy()
         lam = self.temperature(S)  # the chosen solve's (S does not depend on it)
@@ -147,16 +149,16 @@ class TubeMPPI(MPPI):
         d.nominal_reset = bool(reset)
         d.nominal_deviation = deviation
         feedback = self._feedback(z, state, plan)
-        action = self.agent.project((plan[0] - feedback)[:, None], axis=0)[:, 0]
+        action = bound(self.agent, plan[0] - feedback)
         d.nominal_state = z
         self.nominal = self.agent.step(z, plan[0], self.dt)
-        self.U = np.concatenate([plan[1:], plan[-1:]])
+        self.U = shifted(plan)
         d.plan = plan
         return action
 
-    def _two_solves(self, z, state):
+    def _two_solves(self, z, state, deviation):
         """Rollouts from the nominal state z and the real state with the same perturbations
-        (this step's draw).
+        (this step's draw); deviation: |x - z| of the positions.
 
         Returns the perturbations that remain after projection (N, nu, K), the chosen solve's
         states (3, N + 1, K), J (K,), S (K,) and the reset flag. When z equals the real state
@@ -164,7 +166,7 @@ class TubeMPPI(MPPI):
         batch of K rollouts stands for both. Otherwise one batch of 2K rollouts from the two
         start states (heading increments and sinc terms shared).
         """
-        if np.array_equal(z, state):
+        if z.tolist() == state.tolist():
             eps, states, J, importance = self.perturbed_rollouts(state)
             S = J + importance
             m = S.min()
@@ -174,7 +176,7 @@ class TubeMPPI(MPPI):
         J_nom, J_real = J[:K], J[K:]
         S_nom, S_real = J_nom + importance, J_real + importance
         reset = S_real.min() < S_nom.min() + self.reset_threshold or (
-            np.hypot(*(state[:2] - z[:2])) > self.max_deviation
+            deviation > self.max_deviation
         )
         if reset:
             return eps, states[:, :, K:], J_real, S_real, reset

@@ -46,6 +46,9 @@ def test_grid_ignores_padding_and_matches():
     assert not grid.lookup(np.array([0.0]), np.array([0.0]))[0]
     assert grid.lookup(np.array([3.0]), np.array([4.4]))[0]
     assert grid.matches(static.copy()) and not grid.matches(static + 1)
+    assert grid.matches(static.tolist()) and not grid.matches(static.reshape(3, 2))
+    assert not grid.matches(static[:1]) and not grid.matches(None)
+    assert not grid.matches(static, [-5.0, -5.0, 5.0, 5.0])
     assert OccupancyGrid(None, 0.5).lookup(np.zeros(3), np.zeros(3)).sum() == 0
 
 

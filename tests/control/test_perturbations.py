@@ -7,7 +7,7 @@ from scipy import stats
 
 from dcmppi.control import make_controller
 from dcmppi.control.agents.projection import NO_SUMS, project_perturbed
-from dcmppi.control.libm import log_unit, sincos
+from dcmppi.control.libm import cabs, log_unit, sincos
 from dcmppi.control.mppi import MPPI
 from dcmppi.control.perturbations import BLOCK, draw_box, draw_normals
 from dcmppi.control.threads import parts
@@ -48,6 +48,29 @@ def test_log_unit_is_within_one_ulp_of_numpy():
     got, want = _log_all(u), np.log(u)
     assert got[-3:].tolist() == want[-3:].tolist()  # 0 at 1, exact powers of two
     assert (np.abs(got - want) <= np.spacing(np.abs(want))).all()
+
+
+@numba.njit
+def _cabs_all(x, y):
+    out = np.empty_like(x)
+    for j in range(x.size):
+        out[j] = cabs(x[j], y[j])
+    return out
+
+
+def test_cabs_gives_numpys_complex_absolute_bit_for_bit():
+    rng = np.random.default_rng(2)
+    n = 200_000
+    x = rng.normal(size=n) * 10.0 ** rng.integers(-300, 300, n)
+    y = rng.normal(size=n) * 10.0 ** rng.integers(-300, 300, n)
+    y[: n // 2] = rng.normal(size=n // 2) * np.abs(x[: n // 2])  # parts of similar size
+    special = [0.0, -0.0, 5e-324, -5e-324, 1e308, -1e308, np.inf, -np.inf, np.nan]
+    sx, sy = np.meshgrid(special, special)
+    x, y = np.concatenate([x, sx.ravel()]), np.concatenate([y, sy.ravel()])
+    z = np.empty(x.size, complex)
+    z.real, z.imag = x, y  # (x + 1j * y would turn inf + nan i into nan + nan i)
+    got, want = _cabs_all(x, y), np.abs(z)
+    assert np.array_equal(got.view(np.int64), want.view(np.int64))
 
 
 def test_draws_are_standard_normal_and_independent():

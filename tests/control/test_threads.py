@@ -102,7 +102,7 @@ def test_parts_cover_the_samples_at_aligned_boundaries():
         assert ranges[0][0] == 0 and ranges[-1][1] == k and len(ranges) <= threads
         for (_, end), (start, _) in zip(ranges[:-1], ranges[1:], strict=True):
             assert end == start and start % ALIGN == 0
-    assert parts(64, 2) == [(0, 64)]
+    assert parts(64, 2) == ((0, 64),)
 
 
 @pytest.mark.parametrize("bad", [0, -1, 1.5, "2", True, None])

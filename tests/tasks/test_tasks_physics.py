@@ -5,7 +5,7 @@ import pytest
 
 from dcmppi import tasks
 from dcmppi.control import defaults
-from dcmppi.tasks import arcs, navigation, sampling, world_base, worlds
+from dcmppi.tasks import arcs, navigation, physics, sampling, world_base, worlds
 
 
 def drive(env, omega=0.0, steps=10_000):
@@ -67,6 +67,24 @@ def test_free_space_never_collides_and_clearance_is_analytic():
     assert not env.physics.collided
     assert env.physics.first_contact is None
     assert 0 < env.task.min_clearance <= lowest + 1e-9
+
+
+def test_static_clearance_kernel_gives_numpys_values():
+    rng = np.random.default_rng(3)
+    for trial in range(300):
+        n, m = rng.integers(1, 12), rng.integers(1, 300)
+        scale = 10.0 ** rng.integers(-2, 3)
+        robot = (rng.normal(size=n) + 1j * rng.normal(size=n)) * scale
+        solid = (rng.normal(size=m) + 1j * rng.normal(size=m)) * scale
+        radius = rng.random(m) * scale
+        if trial % 5 == 0:  # nan propagates as numpy's min does
+            solid[rng.integers(m)] = np.nan
+        if trial % 7 == 0:  # a centre on a cylinder's axis
+            solid[rng.integers(m)] = robot[-1]
+        each = np.abs(robot[:, None] - solid) - radius
+        nearest, last = physics._static_clearance(robot, solid, radius, 0.3)
+        assert nearest.tobytes() == each.min(axis=1).tobytes()
+        assert last.tobytes() == (each[-1] - 0.3).tobytes()
 
 
 def test_forest_episodes_start_collision_free():

@@ -98,17 +98,7 @@ class OccupancyGrid:
         self.shape = (int(shape[0]) + 4, int(shape[1]) + 4)
         inner = np.array(self.shape) - 2  # last index inside the outer ring
         grid = np.zeros(self.shape, dtype=bool)
-        for (cx, cy, _), r in zip(cyl, radius, strict=True):
-            centre = np.array([cx, cy])
-            i0, j0 = np.maximum(np.floor((centre - r - self.origin) / resolution), 1).astype(int)
-            i1, j1 = np.minimum(np.floor((centre + r - self.origin) / resolution), inner).astype(
-                int
-            )
-            xs = self.origin[0] + np.arange(i0, i1 + 1) * resolution  # cell lower edges
-            ys = self.origin[1] + np.arange(j0, j1 + 1) * resolution
-            nx = np.clip(cx, xs, xs + resolution) - cx  # nearest point of each cell column
-            ny = np.clip(cy, ys, ys + resolution) - cy
-            grid[i0 : i1 + 1, j0 : j1 + 1] |= nx[:, None] ** 2 + ny[None, :] ** 2 <= r * r
+        _rasterise(grid, cyl, radius, self.origin, float(resolution), inner)
         if self.bounds is not None:  # cells reaching beyond the map, the outer ring included
             tol = 1e-9 * resolution  # an edge on a bound up to rounding stays inside
             for axis in (0, 1):
@@ -141,6 +131,27 @@ class OccupancyGrid:
         """Occupied states of every rollout. x, y: (N + 1, R) coordinates [m]. Returns (R,) int."""
         _check_steps(x, y)
         return _occupied_steps(*self._cells, x, y)
+
+
+@numba.njit(cache=True)
+def _rasterise(grid, cyl, radius, origin, resolution, inner):
+    """Sets the cells of `grid` that meet a disc (cyl[k, :2], radius[k]), within the cells
+    1..inner (the outer ring stays free): a cell whose nearest point to the centre is within
+    the radius."""
+    for k in range(len(cyl)):
+        cx, cy, r = cyl[k, 0], cyl[k, 1], radius[k]
+        i0 = int(max(np.floor((cx - r - origin[0]) / resolution), 1.0))
+        j0 = int(max(np.floor((cy - r - origin[1]) / resolution), 1.0))
+        i1 = int(min(np.floor((cx + r - origin[0]) / resolution), inner[0]))
+        j1 = int(min(np.floor((cy + r - origin[1]) / resolution), inner[1]))
+        for i in range(i0, i1 + 1):
+            x = origin[0] + i * resolution  # the cell's lower edges
+            nx = min(max(cx, x), x + resolution) - cx  # its nearest point to the centre
+            for j in range(j0, j1 + 1):
+                y = origin[1] + j * resolution
+                ny = min(max(cy, y), y + resolution) - cy
+                if nx * nx + ny * ny <= r * r:
+                    grid[i, j] = True
 
 
 def _check_bounds(bounds):

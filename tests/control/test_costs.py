@@ -52,6 +52,37 @@ def test_grid_ignores_padding_and_matches():
     assert OccupancyGrid(None, 0.5).lookup(np.zeros(3), np.zeros(3)).sum() == 0
 
 
+def _numpy_grid(cyl, inflation, resolution, origin, shape):
+    """The rasterisation as numpy expressions, one disc at a time (the reference)."""
+    grid = np.zeros(shape, dtype=bool)
+    inner = np.array(shape) - 2
+    for cx, cy, r0 in cyl:
+        r = r0 + inflation
+        centre = np.array([cx, cy])
+        i0, j0 = np.maximum(np.floor((centre - r - origin) / resolution), 1).astype(int)
+        i1, j1 = np.minimum(np.floor((centre + r - origin) / resolution), inner).astype(int)
+        xs = origin[0] + np.arange(i0, i1 + 1) * resolution
+        ys = origin[1] + np.arange(j0, j1 + 1) * resolution
+        nx = np.clip(cx, xs, xs + resolution) - cx
+        ny = np.clip(cy, ys, ys + resolution) - cy
+        grid[i0 : i1 + 1, j0 : j1 + 1] |= nx[:, None] ** 2 + ny[None, :] ** 2 <= r * r
+    return grid
+
+
+def test_compiled_rasterisation_equals_the_numpy_expressions():
+    rng = np.random.default_rng(4)
+    for trial in range(200):
+        m = rng.integers(1, 60)
+        cyl = np.column_stack([rng.uniform(-20, 20, (m, 2)), rng.uniform(0.0, 2.0, m)])
+        cyl[rng.random(m) < 0.1, 2] = 0.0  # padding rows
+        cyl[: m // 4, :2] = np.round(cyl[: m // 4, :2], 1)  # centres on cell edges
+        resolution = [0.1, 0.05, 0.3, 1.0 / 3.0][trial % 4]
+        inflation = [0.0, 0.5, 0.25][trial % 3]
+        grid = OccupancyGrid(cyl, inflation, resolution)
+        want = _numpy_grid(cyl[cyl[:, 2] > 0], inflation, resolution, grid.origin, grid.shape)
+        assert np.array_equal(grid.grid, want)
+
+
 def test_goal_distance_sums_steps():
     x = np.array([[0.0, 3.0], [0.0, 0.0]])
     y = np.array([[4.0, 4.0], [0.0, 0.0]])

@@ -15,8 +15,11 @@ from importlib import resources
 import mujoco
 import numba
 import numpy as np
+from absl import logging
 from dm_control import mujoco as dm_mujoco
+from dm_control.mujoco import engine, index
 from dm_control.mujoco.wrapper import core
+from dm_control.rl import control
 
 from dcmppi.control import defaults
 from dcmppi.control.libm import cabs
@@ -116,6 +119,36 @@ class Physics(dm_mujoco.Physics):
         physics._bind(num_static, num_moving, float(robot_radius))
         physics._fit_view(np.asarray(bounds, dtype=np.float64))
         return physics
+
+    def _reload_from_data(self, data):
+        """dm_control's (dm-control 1.0), but the named indexers (`named`) are built when first
+        read: they take about 5 ms, half of a forest episode's set-up, and no episode reads
+        them (a test guards a dm_control update)."""
+        if not isinstance(data, core.MjData):
+            raise TypeError(f"Expected wrapper.MjData. Got: {type(data)}.")
+        self._data = data
+        self._warnings = self.data.warning.number  # the counters that step() compares
+        self._warnings_before = np.empty_like(self._warnings)
+        self._new_warnings = np.empty(dtype=bool, shape=(len(self._warnings),))
+        with self._contexts_lock:
+            if self._contexts:
+                self._free_rendering_contexts()
+        try:
+            self.after_reset()
+        except control.PhysicsError as e:
+            logging.warning(e)
+        self._named = None
+
+    @property
+    def named(self):
+        """dm_control's named indexers of the model and data (physics.named.data.qpos, ...)."""
+        if self._named is None:
+            axes = index.make_axis_indexers(self.model)
+            self._named = engine.NamedIndexStructs(
+                model=index.struct_indexer(self.model, "mjmodel", axes),
+                data=index.struct_indexer(self.data, "mjdata", axes),
+            )
+        return self._named
 
     def _bind(self, num_static, num_moving, robot_radius):
         m, d = self.model.ptr, self.data.ptr

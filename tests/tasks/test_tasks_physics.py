@@ -288,6 +288,25 @@ def test_agent_model_matches_its_mujoco_plant_over_one_second(agent):
     print(message)
 
 
+def test_named_indexers_are_built_when_first_read():
+    from dm_control import mujoco as dm_mujoco
+
+    env = tasks.load("forest", task_kwargs={"random": 0})
+    env.reset()
+    physics = env.physics
+    assert physics._named is None  # an episode never builds them
+    np.testing.assert_array_equal(physics.named.data.qpos, physics.data.qpos)
+    slot = physics.model.name2id("static_0", "geom")
+    np.testing.assert_array_equal(
+        physics.named.model.geom_pos["static_0"], physics.model.geom_pos[slot]
+    )
+    copied = physics.copy()  # dm_control's copy goes through the override too
+    np.testing.assert_array_equal(copied.named.data.qpos, physics.data.qpos)
+    # dm_control's own construction sets nothing that ours does not (guards a dm_control update)
+    plain = dm_mujoco.Physics.from_model(physics.model)
+    assert set(vars(plain)) <= set(vars(physics))
+
+
 def test_an_invalid_physics_state_raises_dm_control_s_physics_error():
     """Physics.step checks MuJoCo's warnings as dm_control's check_invalid_state does (it reads
     dm_control's private warning counters: this test guards a dm_control update)."""

@@ -85,6 +85,8 @@ def _static_clearance(robot, solid_z, solid_r, radius):
     radius, and each cylinder's clearance from the last centre (M,): the values of numpy's
     each = np.abs(robot[:, None] - solid_z) - solid_r, each.min(axis=1) and each[-1] - radius."""
     n, count = len(robot), len(solid_z)
+    if n == 0:  # numpy's each[-1] of no centres
+        raise IndexError("no robot centres")
     nearest, gaps = np.empty(n), np.empty(count)
     for i in range(n):
         x, y = robot[i].real, robot[i].imag
@@ -424,10 +426,6 @@ class Physics(dm_mujoco.Physics):
     def robot_position(self):
         """x, y of the robot (floats)."""
         return tuple(self._qpos[:2].tolist())
-
-    def time(self):
-        """The simulation time [s] (dm_control's, without its wrappers)."""
-        return self._d.time
 
     def robot_velocity(self):
         """(3,) world-frame vx, vy and yaw rate."""

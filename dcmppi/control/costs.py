@@ -95,6 +95,11 @@ class OccupancyGrid:
                 f"resolution {resolution} m, more than {MAX_CELLS:.0e}; use a coarser resolution"
             )
         self.origin = lo - 2 * resolution  # corner of the outer ring's first cell
+        if not np.isfinite(self.origin).all():
+            raise ValueError(
+                f"resolution {resolution} m is too coarse: the grid's corner overflows; use a "
+                f"resolution below 1e300 m"
+            )
         self.shape = (int(shape[0]) + 4, int(shape[1]) + 4)
         inner = np.array(self.shape) - 2  # last index inside the outer ring
         grid = np.zeros(self.shape, dtype=bool)

@@ -83,6 +83,11 @@ def test_compiled_rasterisation_equals_the_numpy_expressions():
         assert np.array_equal(grid.grid, want)
 
 
+def test_a_resolution_that_overflows_the_grid_is_one_clear_error():
+    with pytest.raises(ValueError, match="too coarse"):
+        OccupancyGrid(np.array([[0.0, 0.0, 1.0]]), 0.5, resolution=1e308)
+
+
 def test_goal_distance_sums_steps():
     x = np.array([[0.0, 3.0], [0.0, 0.0]])
     y = np.array([[4.0, 4.0], [0.0, 0.0]])

@@ -7,7 +7,9 @@ their reduced arguments) behind branch-free argument reductions: within 2 ulp of
 |x| < 1e5 (sincos) and on (0, 1] (log_unit), the same values on every machine (no fused
 multiply-add: numba compiles without fast-math). The rollouts (dcmppi.control.dynamics) and the
 perturbation draws (dcmppi.control.perturbations) use them. `cabs` is numpy's np.abs of a
-complex number as its SIMD loop computes it (the physics' clearances, tasks/physics.py).
+complex number as its SIMD loop computes it, whose multiply-add is fused: it calls LLVM's fma
+(`fma`) explicitly, so it too gives the same values on every machine (the physics' clearances,
+tasks/physics.py).
 """
 
 import math

@@ -22,7 +22,7 @@ from dm_control.mujoco.wrapper import core
 from dm_control.rl import control
 
 from dcmppi.control import defaults
-from dcmppi.control.libm import cabs
+from dcmppi.control.libm import cabs, cabs_or_nan
 
 from . import pedestrians
 from .arcs import DubinsObstacles
@@ -79,27 +79,58 @@ def _set_cylinders(model, ids, radius, half_height=OBSTACLE_HALF_HEIGHT):
     model.geom_aabb[ids, 5] = half_height
 
 
-@numba.njit(cache=True)
-def _static_clearance(robot, solid_z, solid_r, radius):
-    """The nearest static surface (n,) from robot centres (n,) complex, before the robot's
-    radius, and each cylinder's clearance from the last centre (M,): the values of numpy's
-    each = np.abs(robot[:, None] - solid_z) - solid_r, each.min(axis=1) and each[-1] - radius."""
+# no static obstacles and no moving ones, for _clearances
+_NO_SOLID, _NO_MOVING = np.zeros(0, dtype=np.complex128), np.zeros((0, 0), dtype=np.complex128)
+
+
+@numba.njit(inline="always")
+def _surface_gaps(x, y, centres, radii, out):
+    """out[j] = cabs(centres[j].real - x, centres[j].imag - y) - radii[j] (numpy's np.abs of the
+    complex difference, less the radius), in a loop that vectorises and a pass for the rare nan."""
+    for j in range(len(out)):
+        out[j] = cabs_or_nan(centres[j].real - x, centres[j].imag - y) - radii[j]
+    for j in range(len(out)):
+        if out[j] != out[j]:
+            out[j] = cabs(centres[j].real - x, centres[j].imag - y) - radii[j]
+
+
+@numba.njit(inline="always")
+def _nan_min(values):
+    """numpy's min of a non-empty (n,): nan when any is nan."""
+    low, unordered = np.inf, False
+    for v in values:
+        if v < low:
+            low = v
+        elif v != v:
+            unordered = True
+    return np.nan if unordered else low
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _clearances(robot, solid_z, solid_r, moving, moving_r, radius):
+    """The nearest obstacle surface from each robot centre, less the robot's radius (n,), and each
+    static and moving obstacle's from the last centre (M,), (L,); robot (n,) complex, solid_z (M,)
+    complex, moving (n, L) complex (or (0, 0): none). The values of the numpy expressions
+    np.abs(robot[:, None] - solid_z) - solid_r and np.abs(moving - robot[:, None]) - moving_r,
+    their minima over obstacles (np.minimum of the two), less radius; inf (not less radius)
+    where there are no obstacles."""
     n, count = len(robot), len(solid_z)
     if n == 0:  # numpy's each[-1] of no centres
         raise IndexError("no robot centres")
-    nearest, gaps = np.empty(n), np.empty(count)
+    movers = moving.shape[1] if moving.shape[0] else 0
+    nearest, gaps, each = np.full(n, np.inf), np.empty(count), np.empty(movers)
     for i in range(n):
         x, y = robot[i].real, robot[i].imag
-        for j in range(count):
-            gaps[j] = cabs(x - solid_z[j].real, y - solid_z[j].imag) - solid_r[j]
-        low, unordered = np.inf, False  # numpy's min: nan when any is nan
-        for j in range(count):
-            if gaps[j] < low:
-                low = gaps[j]
-            elif gaps[j] != gaps[j]:
-                unordered = True
-        nearest[i] = np.nan if unordered else low
-    return nearest, gaps - radius
+        if count:
+            _surface_gaps(x, y, solid_z, solid_r, gaps)
+            nearest[i] = _nan_min(gaps)
+        if movers:
+            _surface_gaps(x, y, moving[i], moving_r, each)
+            low, static = _nan_min(each), nearest[i]  # np.minimum(static, low)
+            nearest[i] = static if static != static or low >= static else low
+        if count or movers:
+            nearest[i] -= radius
+    return nearest, gaps - radius, each - radius
 
 
 class Physics(dm_mujoco.Physics):
@@ -316,9 +347,10 @@ class Physics(dm_mujoco.Physics):
             robot_xy = self._qpos[:2].copy()
             moving = self._moving.advance(nstep, robot_xy, self._qvel[:2].copy())
             # one that reached its goal may reappear elsewhere: its clearance from there
-            self._moving_clearance = (
-                np.abs(moving[0] - complex(*robot_xy)) - self._moving_obs[:, 3] - self.robot_radius
-            )
+            self._moving_clearance = _clearances(
+                np.array([complex(*robot_xy)]), _NO_SOLID, self._solid_r[:0], moving[:1],
+                self._moving_obs[:, 3], self.robot_radius,
+            )[2]  # fmt: skip
         elif self._moving is not None:
             moving = self._moving.advance(nstep)
         self._activate_near(nstep * self._opt.timestep)
@@ -385,27 +417,17 @@ class Physics(dm_mujoco.Physics):
         )
 
     def _update_clearance(self, robot, moving):
-        """Minimum clearance (n,) at robot centres (n,) complex, obstacles moving (n, L) complex.
+        """Minimum clearance (n,) at robot centres (n,) complex, obstacles moving (n, L) complex
+        (or None: where they are is not needed).
 
         Also keeps each obstacle's clearance at the last centre for `_activate_near`.
         """
-        radius = self.robot_radius
-        clearance = None
-        if len(self._solid_r):
-            clearance, self._static_clearance = _static_clearance(
-                robot, self._solid_z, self._solid_r, radius
-            )
-        else:
-            self._static_clearance = self._solid_r
+        clearance, self._static_clearance, each = _clearances(
+            robot, self._solid_z, self._solid_r, _NO_MOVING if moving is None else moving,
+            self._moving_obs[:, 3], self.robot_radius,
+        )  # fmt: skip
         if moving is not None:
-            each = np.abs(moving - robot[:, None])
-            each -= self._moving_obs[:, 3]
-            self._moving_clearance = each[-1] - radius
-            nearest = each.min(axis=1)
-            clearance = nearest if clearance is None else np.minimum(clearance, nearest)
-        if clearance is None:
-            return np.full(len(robot), np.inf)
-        clearance -= radius
+            self._moving_clearance = each
         return clearance
 
     # Readouts -------------------------------------------------------------------------------

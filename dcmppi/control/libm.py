@@ -9,7 +9,7 @@ multiply-add: numba compiles without fast-math). The rollouts (dcmppi.control.dy
 perturbation draws (dcmppi.control.perturbations) use them. `cabs` is numpy's np.abs of a
 complex number as its SIMD loop computes it, whose multiply-add is fused: it calls LLVM's fma
 (`fma`) explicitly, so it too gives the same values on every machine (the physics' clearances,
-tasks/physics.py).
+tasks/physics.py, through `cabs_or_nan`, its branch-free form).
 """
 
 import math
@@ -119,4 +119,16 @@ def cabs(x, y):
     if larger == 0.0:
         return 0.0
     ratio = smaller / larger
+    return math.sqrt(fma(ratio, ratio, 1.0)) * larger
+
+
+@numba.njit(inline="always")
+def cabs_or_nan(x, y):
+    """cabs(x, y) wherever this is not nan; nan where x and y are both 0, both infinite or either
+    nan (there cabs gives the value): cabs's operations without its branches, so that a loop of
+    it vectorises."""
+    re, im = abs(x), abs(y)
+    swap = re > im  # false where either is nan: the nan goes into ratio
+    larger, smaller = (re if swap else im), (im if swap else re)
+    ratio = smaller / larger  # nan where both are 0 or both inf (numba: error_model="numpy")
     return math.sqrt(fma(ratio, ratio, 1.0)) * larger

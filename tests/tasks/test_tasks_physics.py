@@ -69,26 +69,52 @@ def test_free_space_never_collides_and_clearance_is_analytic():
     assert 0 < env.task.min_clearance <= lowest + 1e-9
 
 
+def _numpy_clearances(robot, solid, solid_r, moving, moving_r, radius):
+    """The numpy expressions `physics._clearances` computes (its docstring)."""
+    clearance, static_last, moving_last = None, np.zeros(0), np.zeros(0)
+    if len(solid):
+        each = np.abs(robot[:, None] - solid) - solid_r
+        clearance, static_last = each.min(axis=1), each[-1] - radius
+    if moving.size:
+        each = np.abs(moving - robot[:, None])
+        each -= moving_r
+        nearest, moving_last = each.min(axis=1), each[-1] - radius
+        clearance = nearest if clearance is None else np.minimum(clearance, nearest)
+    if clearance is None:
+        return np.full(len(robot), np.inf), static_last, moving_last
+    return clearance - radius, static_last, moving_last
+
+
 @pytest.mark.skipif(
     np.abs(np.complex128(0.7813114007004275 - 0.1904494670360214j)) != 0.8041881025971279,
     reason="numpy's complex absolute rounds twice here (no FMA): libm.cabs fuses, as on AVX2",
 )
-def test_static_clearance_kernel_gives_numpys_values():
+def test_clearance_kernel_gives_numpys_values():
     rng = np.random.default_rng(3)
-    for trial in range(300):
-        n, m = rng.integers(1, 12), rng.integers(1, 300)
+    special = [np.nan, np.inf, -np.inf, 0.0, -0.0, 1e-310, 1e300]
+    for trial in range(400):
+        n, m, l = rng.integers(1, 12), rng.integers(0, 300), rng.integers(0, 40)
+        if m == l == 0:
+            m = 1
         scale = 10.0 ** rng.integers(-2, 3)
-        robot = (rng.normal(size=n) + 1j * rng.normal(size=n)) * scale
-        solid = (rng.normal(size=m) + 1j * rng.normal(size=m)) * scale
-        radius = rng.random(m) * scale
-        if trial % 5 == 0:  # nan propagates as numpy's min does
-            solid[rng.integers(m)] = np.nan
-        if trial % 7 == 0:  # a centre on a cylinder's axis
+        robot, solid, moving = (
+            (rng.normal(size=shape) + 1j * rng.normal(size=shape)) * scale
+            for shape in (n, m, (n, l))
+        )
+        solid_r, moving_r = rng.random(m) * scale, rng.random(l) * scale
+        if trial % 5 == 0 and m:  # nan propagates as numpy's min and minimum do
+            solid[rng.integers(m)] = complex(rng.choice(special), rng.choice(special))
+        if trial % 6 == 0 and l:
+            moving[rng.integers(n), rng.integers(l)] = complex(rng.choice(special), 0.0)
+        if trial % 7 == 0 and m:  # a centre on a cylinder's axis
             solid[rng.integers(m)] = robot[-1]
-        each = np.abs(robot[:, None] - solid) - radius
-        nearest, last = physics._static_clearance(robot, solid, radius, 0.3)
-        assert nearest.tobytes() == each.min(axis=1).tobytes()
-        assert last.tobytes() == (each[-1] - 0.3).tobytes()
+        if trial % 4 == 0 and l:
+            moving[-1, rng.integers(l)] = robot[-1]
+        moving = moving if l else physics._NO_MOVING
+        got = physics._clearances(robot, solid, solid_r, moving, moving_r, 0.3)
+        want = _numpy_clearances(robot, solid, solid_r, moving, moving_r, 0.3)
+        for g, w in zip(got, want, strict=True):
+            assert g.tobytes() == w.tobytes(), (trial, g, w)
 
 
 def test_forest_episodes_start_collision_free():

@@ -184,6 +184,8 @@ class TubeMPPI(MPPI):
 
     def _feedback(self, z, state, plan):
         """K_0 (x - z) (nu,) of the time-varying LQR along the nominal plan (0 when x is z)."""
+        if state.tolist() == z.tolist():  # z after a reset: what follows would give 0 too
+            return np.zeros(self.nu)
         error = state - z
         error[2] = wrap_angle(error[2])
         if not error.any():  # K_0 @ 0 = 0: the gains are not needed

@@ -7,7 +7,9 @@ package's source, so a commit that touches only documentation is no difference),
 resolved task or controller parameter (the classes' defaults included), another sha256 of an
 input file (layout CSV/JSON, the BARN file of $DCMPPI_BARN, the module of a user's
 package.module:ClassName controller or predictor). Library versions, CPU and host are recorded
-and shown, never compared (shards of one benchmark run on different machines).
+and shown, never compared (shards of one benchmark run on different machines). So is the
+arithmetic the CPU gives numpy and the BLAS (`kernels`): machines of one model name may differ
+in it, and with it in the last bits of every plan, so in the episodes' numbers.
 """
 
 from __future__ import annotations
@@ -33,7 +35,8 @@ def collect(exp, specs) -> dict:
     """The provenance of a run of `exp` (an Experiment) over `specs` = [(key, EpisodeSpec)]:
     {"dcmppi", "code_sha256", "commit", "dirty", "task": {"name", "params"}, "rows": {label:
     {"controller", "params"}}, "files": {what: {"path", "sha256"}}, "libraries": {name:
-    version}, "cpu", "cores", "host"}. Builds each row's controller once (as check_specs does)."""
+    version}, "cpu", "kernels", "cores", "host"}. Builds each row's controller once (as
+    check_specs does)."""
     first = {}
     for (_, label, _), spec in specs:
         first.setdefault(label, spec)
@@ -58,6 +61,7 @@ def collect(exp, specs) -> dict:
         "files": files,
         "libraries": libraries(),
         "cpu": cpu_model(),
+        "kernels": kernels(),
         "cores": os.cpu_count(),
         "host": socket.gethostname(),
     }
@@ -264,3 +268,28 @@ def cpu_model() -> str:
     except OSError:
         pass
     return platform.processor() or platform.machine()
+
+
+# numpy's instruction-set levels, widest first (its runtime's names, x86 then Arm and Power)
+NUMPY_LEVELS = (
+    "AVX512_SPR", "AVX512_ICL", "AVX512_CNL", "AVX512_CLX", "AVX512_SKX", "AVX512F", "AVX2",
+    "AVX", "SSE42", "SSE2", "SVE", "ASIMD", "NEON", "VSX4", "VSX3", "VSX2", "VSX", "VX",
+)  # fmt: skip
+
+
+def kernels() -> str:
+    """The instruction sets that numpy's loops and the BLAS dispatch to here: the widest level
+    numpy's runtime found and each BLAS's kernel family (e.g. "numpy AVX512_SKX, openblas
+    SkylakeX"). They change the last bits of transcendental functions and of sums."""
+    try:
+        from numpy._core._multiarray_umath import __cpu_features__ as features
+    except ImportError:  # numpy 1.x
+        from numpy.core._multiarray_umath import __cpu_features__ as features
+    level = next((name for name in NUMPY_LEVELS if features.get(name)), "baseline")
+    out = [f"numpy {level}"]
+    from threadpoolctl import threadpool_info
+
+    for lib in threadpool_info():
+        if lib.get("user_api") == "blas":
+            out.append(f"{lib.get('internal_api')} {lib.get('architecture') or '?'}")
+    return ", ".join(out)

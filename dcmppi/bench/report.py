@@ -388,7 +388,7 @@ def provenance(data: Loaded) -> tuple[str, list[str], str]:
         return line, ["## Provenance", "", line[len("Provenance: ") :].capitalize() + "."], ""
     latest = recorded[-1]["provenance"]
     libs = ", ".join(f"{k} {v}" for k, v in latest["libraries"].items() if v)
-    machine = f"{latest['cpu']} ({latest['cores']} cores)"
+    machine = _machine(latest)
     line = f"Provenance: {short(latest)}; {libs}; {machine}"
     md = ["## Provenance", ""]
     for run in data.runs:
@@ -406,8 +406,9 @@ def provenance(data: Loaded) -> tuple[str, list[str], str]:
         )
         libs_i = ", ".join(f"{k} {v}" for k, v in prov["libraries"].items() if v)
         md.append(
-            text + f"{short(prov)}; {libs_i}; {prov['cpu']} ({prov['cores']} cores) on "
-            f"{prov['host']}" + (f"; files: {files}" if files else "")
+            text
+            + f"{short(prov)}; {libs_i}; {_machine(prov)} on {prov['host']}"
+            + (f"; files: {files}" if files else "")
         )
     md += [
         "",
@@ -442,6 +443,12 @@ def provenance(data: Loaded) -> tuple[str, list[str], str]:
         ]
         table_lines.append(f"| {noise} | {label} | {'; '.join(cells)} |")
     return line, md, mixed + "\n\n" + "\n".join(table_lines)
+
+
+def _machine(prov: dict) -> str:
+    """The CPU, its cores and, where recorded (since provenance recorded it), its kernels."""
+    kernels = f"; {prov['kernels']}" if prov.get("kernels") else ""
+    return f"{prov['cpu']} ({prov['cores']} cores{kernels})"
 
 
 def _when(t: float) -> str:

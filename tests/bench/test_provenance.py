@@ -97,7 +97,13 @@ def test_a_resume_under_other_provenance_is_refused_in_one_line(tmp_path, change
 def test_library_versions_and_machine_are_recorded_not_compared(tmp_path):
     path = tmp_path / "r.db"
     _run(path, PROV)
-    other = _with(libraries={"python": "3.12.0"}, cpu="other", cores=64, host="node7")
+    other = _with(
+        libraries={"python": "3.12.0"},
+        cpu="other",
+        kernels="numpy AVX2, openblas Haswell",
+        cores=64,
+        host="node7",
+    )
     _run(path, other, [(1, RESULT)])  # another node of a cluster: fine
     db = ResultsDB(path)
     runs = db.runs()
@@ -123,6 +129,20 @@ def test_allow_mixed_extends_and_the_report_shows_the_versions_per_row(tmp_path)
     assert "## Provenance" in md and "**Mixed**" in md
     line = next(x for x in md.splitlines() if x.startswith("| none | mppi | run 1"))
     assert "code aaaaaaaa" in line and "code bbbbbbbb" in line
+    assert "CPU (2 cores) on h" in md  # recorded before the kernels were
+
+
+def test_the_kernels_name_numpys_level_and_each_blas(monkeypatch):
+    import threadpoolctl
+
+    blas = {"user_api": "blas", "internal_api": "openblas", "architecture": "SkylakeX"}
+    openmp = {"user_api": "openmp", "internal_api": "openmp"}
+    monkeypatch.setattr(threadpoolctl, "threadpool_info", lambda: [openmp, blas])
+    numpy_part, blas_part = provenance.kernels().split(", ")
+    assert blas_part == "openblas SkylakeX"
+    assert numpy_part.split()[1] in (*provenance.NUMPY_LEVELS, "baseline")
+    monkeypatch.setattr(threadpoolctl, "threadpool_info", lambda: [])
+    assert provenance.kernels() == numpy_part
 
 
 def test_rows_that_only_errored_do_not_bind_the_fixed_rerun(tmp_path):
@@ -225,6 +245,7 @@ def test_collect_resolves_defaults_and_hashes_user_modules_and_files(tmp_path, m
     assert first["task"]["params"]["obstacle_measurement_std"] == 0.0  # Navigation's default
     assert "world" not in first["task"]["params"]  # the environment index
     assert first["libraries"]["numpy"] and first["cores"] >= 1 and first["code_sha256"]
+    assert first["kernels"] == provenance.kernels()
     assert set(first["files"]) == {f"controller {name}:Mine", "task parameter path"}
     diffs = provenance.differences(first, second)
     assert f"row '{name}:Mine' parameter K: 500 -> 64" in diffs

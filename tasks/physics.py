@@ -113,11 +113,13 @@ def _clearances(robot, solid_z, solid_r, moving, moving_r, radius):
     complex, moving (n, L) complex (or (0, 0): none). The values of the numpy expressions
     np.abs(robot[:, None] - solid_z) - solid_r and np.abs(moving - robot[:, None]) - moving_r,
     their minima over obstacles (np.minimum of the two), less radius; inf (not less radius)
-    where there are no obstacles."""
+    where there are no obstacles; nan where a distance is (its sign and payload unspecified)."""
     n, count = len(robot), len(solid_z)
     if n == 0:  # numpy's each[-1] of no centres
         raise IndexError("no robot centres")
     movers = moving.shape[1] if moving.shape[0] else 0
+    if len(solid_r) != count or movers and (moving.shape[0] != n or len(moving_r) != movers):
+        raise ValueError("obstacle centres, radii and robot centres do not match")
     nearest, gaps, each = np.full(n, np.inf), np.empty(count), np.empty(movers)
     for i in range(n):
         x, y = robot[i].real, robot[i].imag

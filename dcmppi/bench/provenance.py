@@ -270,26 +270,27 @@ def cpu_model() -> str:
     return platform.processor() or platform.machine()
 
 
-# numpy's instruction-set levels, widest first (its runtime's names, x86 then Arm and Power)
-NUMPY_LEVELS = (
-    "AVX512_SPR", "AVX512_ICL", "AVX512_CNL", "AVX512_CLX", "AVX512_SKX", "AVX512F", "AVX2",
-    "AVX", "SSE42", "SSE2", "SVE", "ASIMD", "NEON", "VSX4", "VSX3", "VSX2", "VSX", "VX",
-)  # fmt: skip
-
-
 def kernels() -> str:
-    """The instruction sets that numpy's loops and the BLAS dispatch to here: the widest level
-    numpy's runtime found and each BLAS's kernel family (e.g. "numpy AVX512_SKX, openblas
-    SkylakeX"). They change the last bits of transcendental functions and of sums."""
+    """The instruction sets that numpy's loops and the BLAS dispatch to here: numpy's widest
+    build target this processor runs and each BLAS's kernel family (e.g. "numpy X86_V3, openblas
+    Haswell"). They change the last bits of transcendental functions and of sums."""
     try:
-        from numpy._core._multiarray_umath import __cpu_features__ as features
+        from numpy._core import _multiarray_umath as umath
     except ImportError:  # numpy 1.x
-        from numpy.core._multiarray_umath import __cpu_features__ as features
-    level = next((name for name in NUMPY_LEVELS if features.get(name)), "baseline")
-    out = [f"numpy {level}"]
+        from numpy.core import _multiarray_umath as umath
+    out = [f"numpy {numpy_level(umath)}"]
     from threadpoolctl import threadpool_info
 
     for lib in threadpool_info():
         if lib.get("user_api") == "blas":
             out.append(f"{lib.get('internal_api')} {lib.get('architecture') or '?'}")
     return ", ".join(out)
+
+
+def numpy_level(umath) -> str:
+    """The widest of numpy's build targets (its baseline, then what it dispatches to) that the
+    processor has and numpy enabled: what its loops run (numpy 2.4's grouped levels X86_V2,
+    X86_V3, X86_V4 included); "baseline" without one."""
+    features = umath.__cpu_features__
+    targets = [*getattr(umath, "__cpu_baseline__", ()), *getattr(umath, "__cpu_dispatch__", ())]
+    return next((t for t in reversed(targets) if features.get(t)), "baseline")

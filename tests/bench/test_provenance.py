@@ -140,9 +140,23 @@ def test_the_kernels_name_numpys_level_and_each_blas(monkeypatch):
     monkeypatch.setattr(threadpoolctl, "threadpool_info", lambda: [openmp, blas])
     numpy_part, blas_part = provenance.kernels().split(", ")
     assert blas_part == "openblas SkylakeX"
-    assert numpy_part.split()[1] in (*provenance.NUMPY_LEVELS, "baseline")
     monkeypatch.setattr(threadpoolctl, "threadpool_info", lambda: [])
     assert provenance.kernels() == numpy_part
+
+
+def test_numpys_level_is_its_widest_target_that_runs():
+    from types import SimpleNamespace
+
+    umath = SimpleNamespace(
+        __cpu_baseline__=["SSE", "SSE2", "X86_V2"],
+        __cpu_dispatch__=["X86_V3", "X86_V4", "AVX512_ICL"],
+        __cpu_features__={"SSE": True, "SSE2": True, "X86_V2": True, "X86_V3": True},
+    )
+    assert provenance.numpy_level(umath) == "X86_V3"
+    umath.__cpu_features__["X86_V3"] = False  # disabled (NPY_DISABLE_CPU_FEATURES) or absent
+    assert provenance.numpy_level(umath) == "X86_V2"
+    umath.__cpu_features__ = {}
+    assert provenance.numpy_level(umath) == "baseline"
 
 
 def test_rows_that_only_errored_do_not_bind_the_fixed_rerun(tmp_path):

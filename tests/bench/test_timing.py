@@ -9,7 +9,7 @@ import time
 import numpy as np
 import pytest
 
-from dcmppi.bench import timing
+from dcmppi.bench import provenance, timing
 from dcmppi.bench.timing import cases, episodes, loop, profile, scaling
 from dcmppi.bench.timing.worlds import dense_forest, world
 from dcmppi.control import make_controller
@@ -161,7 +161,9 @@ def test_fingerprint_repeats_and_tells_controllers_and_perturbations_apart(capsy
     runs = []
     for _ in range(2):
         assert timing.main(["--fingerprint", "--steps", "6", "--json"]) == 0
-        runs.append(json.loads(capsys.readouterr().out)["results"])
+        out = json.loads(capsys.readouterr().out)
+        assert out["kernels"] == provenance.kernels()  # the hashes are this machine's
+        runs.append(out["results"])
     assert runs[0] == runs[1]  # same seeds, same actions, same hashes
     hashes = [r["sha1"] for r in runs[0]]
     assert [r["case"] for r in runs[0]] == list(labels)

@@ -8,6 +8,7 @@ import sys
 
 from threadpoolctl import threadpool_limits
 
+from dcmppi.bench.provenance import kernels
 from dcmppi.control import defaults
 from dcmppi.control._malloc import tune_malloc
 
@@ -141,10 +142,11 @@ def main(argv=None):
         return 0
     if args.fingerprint:
         rows = fingerprint(cases.FINGERPRINT_CASES, args.steps)
+        machine = kernels()
         if args.json:
-            print(json.dumps({"steps": args.steps, "results": rows}, indent=2))
+            print(json.dumps({"steps": args.steps, "kernels": machine, "results": rows}, indent=2))
         else:
-            print_fingerprint(rows, args.steps)
+            print_fingerprint(rows, args.steps, machine)
         return 0
     rows = table(cases.CASES, args.steps, args.block)
     info = {"K": defaults.K, "N": defaults.N, "P": defaults.P, "steps": args.steps}

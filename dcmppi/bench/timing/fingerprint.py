@@ -1,6 +1,8 @@
 """`dcmppi timing --fingerprint`: the sha1 of every closed loop's actions.
 
-A change that keeps every plan bit-identical prints the same hashes (docs/performance.md).
+A change that keeps every plan bit-identical prints the same hashes (docs/performance.md) on
+one machine; another machine's kernels (numpy's SIMD level, the BLAS's), printed with them, may
+give other hashes at the same code.
 """
 
 import hashlib
@@ -31,9 +33,10 @@ def fingerprint(cases, steps):
     return rows
 
 
-def print_fingerprint(rows, steps):
-    """The rows as text, one hash per line."""
+def print_fingerprint(rows, steps, kernels):
+    """The rows as text, one hash per line, after the machine's kernels (provenance.kernels)."""
     print(f"dcmppi timing --fingerprint: sha1 of the actions of {steps} closed-loop steps")
+    print(f"on {kernels}: compare hashes from machines with the same kernels")
     for r in rows:
         params = ",".join(f"{k}={v}" for k, v in r["params"].items())
         print(f"{r['sha1']}  {r['case']:<21} {r['problem']:<11} {params}")

@@ -281,9 +281,10 @@ def kernels() -> str:
     out = [f"numpy {numpy_level(umath)}"]
     from threadpoolctl import threadpool_info
 
-    for lib in threadpool_info():
-        if lib.get("user_api") == "blas":
-            out.append(f"{lib.get('internal_api')} {lib.get('architecture') or '?'}")
+    for lib in threadpool_info():  # numpy's BLAS, and scipy's where loaded (often the same)
+        blas = f"{lib.get('internal_api')} {lib.get('architecture') or '?'}"
+        if lib.get("user_api") == "blas" and blas not in out:
+            out.append(blas)
     return ", ".join(out)
 
 

@@ -137,7 +137,7 @@ def test_the_kernels_name_numpys_level_and_each_blas(monkeypatch):
 
     blas = {"user_api": "blas", "internal_api": "openblas", "architecture": "SkylakeX"}
     openmp = {"user_api": "openmp", "internal_api": "openmp"}
-    monkeypatch.setattr(threadpoolctl, "threadpool_info", lambda: [openmp, blas])
+    monkeypatch.setattr(threadpoolctl, "threadpool_info", lambda: [openmp, blas, blas])
     numpy_part, blas_part = provenance.kernels().split(", ")
     assert blas_part == "openblas SkylakeX"
     monkeypatch.setattr(threadpoolctl, "threadpool_info", lambda: [])

@@ -10,7 +10,8 @@ count must be equal, the final pose equal in float64, and the trace (the robot's
 every control instant, stored in float32) equal in every bit. A tolerance would hide nothing
 real (float32 resolves 8e-6 m at 75 m) and would let a changed controller or library pass
 whose first difference is small. Where it departs, the message names the first control
-instant that differs and by how much.
+instant that differs and by how much, and, where the run recorded other kernels than this
+machine's (numpy's SIMD level, the BLAS's: provenance.kernels), both: they round otherwise.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dcmppi.bench.provenance import kernels
 from dcmppi.bench.results import ResultsDB
 from dcmppi.bench.runner import Episode, EpisodeSpec, decode_trace, run_episode
 
@@ -67,8 +69,16 @@ def replay(
       ValueError: no such episode (the message lists what the databases hold), or a row whose
         recorded parameters are not those its configuration gives.
     """
-    record, config = _find(_paths(db_paths), label, int(env_index), noise)
-    return _replay(record, config, video, camera, progress, size)
+    record, config, recorded_on = _find(_paths(db_paths), label, int(env_index), noise)
+    replayed = _replay(record, config, video, camera, progress, size)
+    here = kernels()
+    if replayed.reproduced or recorded_on in (None, here):
+        return replayed
+    return dataclasses.replace(
+        replayed,
+        message=f"{replayed.message}\n  machine: recorded on {recorded_on}, replayed on {here}: "
+        "other kernels round otherwise, so the plans may depart from the first step",
+    )
 
 
 def gallery(db_paths, out_dir, n: int, camera: str = "scene") -> dict:
@@ -98,7 +108,9 @@ def gallery(db_paths, out_dir, n: int, camera: str = "scene") -> dict:
         for row in picks + ([successes[key]] if key in successes else []):
             name = f"{_slug(row['noise'])}-{_slug(row['label'])}-env{row['env_index']}.gif"
             relative = Path("gallery") / name
-            record, config = _find([source[id(row)]], row["label"], row["env_index"], row["noise"])
+            record, config, _ = _find(
+                [source[id(row)]], row["label"], row["env_index"], row["noise"]
+            )
             done = _replay(record, config, out_dir / relative, camera, False, GALLERY_SIZE)
             if not done.reproduced:
                 print(f"gallery: {done.message.splitlines()[0]}", file=sys.stderr)
@@ -213,8 +225,9 @@ def _paths(db_paths) -> list[Path]:
     return paths
 
 
-def _find(paths, label, env_index, noise) -> tuple[dict, dict]:
-    """The row (noise, label, env_index) of the first database holding it, and its config."""
+def _find(paths, label, env_index, noise) -> tuple[dict, dict, str | None]:
+    """The row (noise, label, env_index) of the first database holding it, its config and the
+    kernels its run recorded (None: not recorded)."""
     held = set()
     for path in paths:
         db = ResultsDB(path)
@@ -233,8 +246,10 @@ def _find(paths, label, env_index, noise) -> tuple[dict, dict]:
                     f"profiles ({noises}); choose one with --noise"
                 )
             if rows:
-                found = rows[0]
-                return db.row(found["noise"], label, env_index), db.config
+                found = db.row(rows[0]["noise"], label, env_index)
+                run = next((r for r in db.runs() if r["run_id"] == found.get("run_id")), None)
+                recorded_on = ((run or {}).get("provenance") or {}).get("kernels")
+                return found, db.config, recorded_on
         finally:
             db.close()
     where = ", ".join(str(p) for p in paths)

@@ -1,6 +1,7 @@
 """Episode traces, replay of recorded episodes, the failure gallery."""
 
 import concurrent.futures as cf
+import json
 import multiprocessing
 import pathlib
 import sqlite3
@@ -11,6 +12,7 @@ import pytest
 from dcmppi import tasks
 from dcmppi.bench import replay as rp
 from dcmppi.bench.experiments import Experiment
+from dcmppi.bench.provenance import kernels
 from dcmppi.bench.results import ResultsDB
 from dcmppi.bench.runner import EpisodeSpec, decode_trace, encode_trace, run_episode
 
@@ -29,9 +31,11 @@ TASK_PARAMS = {
 
 
 def record(
-    path, task, episodes=1, noise="control", workers=1, rows=("mppi",), params=TINY, **task_params
-):
-    """A results database at `path` of `episodes` tiny episodes per row of `task`."""
+    path, task, episodes=1, noise="control", workers=1, rows=("mppi",), params=TINY,
+    provenance=None, **task_params,
+):  # fmt: skip
+    """A results database at `path` of `episodes` tiny episodes per row of `task` (one run of
+    `provenance` when given)."""
     exp = Experiment.from_dict(
         {
             "task": task,
@@ -52,9 +56,13 @@ def record(
             results = list(pool.map(run_episode, specs))
     else:
         results = [run_episode(spec) for spec in specs]
-    db = ResultsDB(path, exp.config())
+    db = ResultsDB(path, exp.config(), provenance=provenance)
+    if provenance is not None:
+        db.begin_run(exp.to_dict())
     for key, spec, result in zip(keys, specs, results, strict=True):
         db.record(key, spec, result)
+    if provenance is not None:
+        db.end_run()
     db.close()
     return exp
 
@@ -110,6 +118,19 @@ def test_a_changed_record_is_not_reproduced_and_the_departure_is_named(tmp_path)
     r = rp.replay(db, "mppi", 0)
     assert "outcome: time_limit (recorded collision)" in r.message
     assert "final pose" in r.message and "(recorded" in r.message.split("final pose")[1]
+
+
+def test_a_departure_names_the_kernels_when_the_record_was_made_on_others(tmp_path):
+    db = tmp_path / "r.db"
+    record(db, "blocked", provenance={"kernels": "numpy X86_V4, openblas SkylakeX"})
+    assert rp.replay(db, "mppi", 0).reproduced  # the machine is named only where it departs
+    trace = decode_trace(rp.replay(db, "mppi", 0).record["trace"]).copy()
+    trace[3, 0] += 0.5
+    _tamper(db, "UPDATE episodes SET trace = ?", encode_trace(trace))
+    message = rp.replay(db, "mppi", 0).message
+    assert f"recorded on numpy X86_V4, openblas SkylakeX, replayed on {kernels()}" in message
+    _tamper(db, "UPDATE runs SET provenance = ?", json.dumps({"kernels": kernels()}))
+    assert "machine:" not in rp.replay(db, "mppi", 0).message  # the same kernels: not the cause
 
 
 def test_a_worker_processs_end_is_named_not_rerun(tmp_path):

@@ -71,8 +71,7 @@ def replay(
     """
     record, config, recorded_on = _find(_paths(db_paths), label, int(env_index), noise)
     replayed = _replay(record, config, video, camera, progress, size)
-    here = kernels()
-    if replayed.reproduced or recorded_on in (None, here):
+    if replayed.reproduced or recorded_on is None or recorded_on == (here := kernels()):
         return replayed
     return dataclasses.replace(
         replayed,

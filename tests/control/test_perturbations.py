@@ -3,6 +3,7 @@
 import numba
 import numpy as np
 import pytest
+from fused_cabs import needs_fused_cabs
 from scipy import stats
 
 from dcmppi.control import make_controller
@@ -58,17 +59,7 @@ def _cabs_all(x, y):
     return out
 
 
-def numpy_fuses_its_complex_absolute():
-    """Whether numpy's np.abs of complex numbers runs its SIMD loop with a fused multiply-add
-    (AVX2 and AVX-512 processors; its baseline loop rounds twice): a value where the two differ."""
-    return float(np.abs(np.complex128(0.7813114007004275 - 0.1904494670360214j))) == (
-        0.8041881025971279
-    )
-
-
-@pytest.mark.skipif(
-    not numpy_fuses_its_complex_absolute(), reason="numpy's complex absolute rounds twice here"
-)
+@needs_fused_cabs
 def test_cabs_gives_numpys_complex_absolute_bit_for_bit():
     rng = np.random.default_rng(2)
     n = 200_000

@@ -26,6 +26,7 @@ from .objective import Objective
 from .perturbations import draw_box, draw_normals
 from .predictors import predictor_class
 from .predictors.base import INPUTS
+from .sums import importance, importance_of
 from .temperature import COLLISION_NATS, ESS_TARGET, choose_lambda
 from .threads import parts, run
 from .timer import NO_TIMER
@@ -323,7 +324,8 @@ class Controller:
     def perturbed_rollouts(self, x0, eps=None, starts=1, sums=False, moving=False):
         """A step's per-sample work, its samples split over `threads` threads: the controls
         project(U + eps) (Controller.controls), their rollouts from x0 and costs under this
-        step's objective (Controller.evaluate), and the importance term (Controller.importance).
+        step's objective (Controller.evaluate), and the importance term (Controller.importance;
+        with per-step draws into a box its sums over the steps come from the draws' pass).
 
         x0: (3,), or (3, S) with starts = S > 1: every sample rolls out from each start.
         eps: (N, nu, K) perturbations, or None: this step's (Controller.sample); per-step draws
@@ -336,6 +338,7 @@ class Controller:
         """
         agent, U0 = self.agent, self.U
         in_pass = eps is None and self._draws_in_pass()
+        in_pass_importance = False
         if eps is None and not in_pass:
             with self.timer("sample"):
                 eps = self.sample()
@@ -344,9 +347,14 @@ class Controller:
         if in_pass or len(ranges) > 1:
             u, e = np.empty((self.N, self.nu, K)), np.empty((self.N, self.nu, K))
             total = np.zeros((self.nu, K)) if sums else NO_SUMS
-            if in_pass:
+            if in_pass:  # with the importance term's sums over the steps unless it is replaced
+                own = type(self).importance is Controller.importance
+                in_pass_importance = own and "importance" not in vars(self)
+                products = np.zeros((self.nu, K) if in_pass_importance else (0, 0))
                 box = agent.lower, agent.upper
-                project = functools.partial(draw_box, self._key, *self._per_step(), U0, *box)
+                project = functools.partial(
+                    draw_box, self._key, *self._per_step(), U0, *box, products=products
+                )
             else:
                 project = functools.partial(project_columns, agent, U0, eps)
         if len(ranges) == 1:  # the whole batch on this thread
@@ -358,7 +366,11 @@ class Controller:
                     total = rest[0] if sums else NO_SUMS
             states, J, term = self.evaluate(x0, u, starts, moving=True)
             with self.timer("importance"):
-                importance = self.importance(U0, e)
+                importance = (
+                    importance_of(products, self._importance_weight)
+                    if in_pass_importance
+                    else self.importance(U0, e)
+                )
             return e, states, J, importance, *([total] if sums else []), *([term] if moving else [])
         objective = self.objective
         out = np.empty((3, self.N + 1, starts, K))
@@ -375,7 +387,11 @@ class Controller:
                 J[c0:c1], t = objective(states, True, (c0, c1))
                 if term is not None:
                     term[c0:c1] = t
-            importance[j0:j1] = self.importance(U0, e[:, :, j0:j1])
+            importance[j0:j1] = (
+                importance_of(products[:, j0:j1], self._importance_weight)
+                if in_pass_importance
+                else self.importance(U0, e[:, :, j0:j1])
+            )
 
         with self.timer("threads"):
             run(part, ranges)
@@ -397,11 +413,7 @@ class Controller:
     def importance(self, U0, eps):
         """gamma lambda sum_i u_i^T Sigma^-1 eps_i for each sample (K,) (lambda = 1 with
         lambda_="auto")."""
-        w = self._importance_weight
-        S = w[0] * (U0[:, 0] @ eps[:, 0])
-        for j in range(1, self.nu):
-            S += w[j] * (U0[:, j] @ eps[:, j])
-        return S
+        return importance(U0, eps, self._importance_weight)
 
     def temperature(self, S):
         """The step's lambda for the costs S (K,): lambda_, or with "auto" the one whose weights

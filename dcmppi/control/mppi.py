@@ -4,6 +4,7 @@ import numpy as np
 
 from .controller import Controller
 from .registry import register
+from .sums import weighted_rows
 
 
 def mppi_weights(S, lambda_):
@@ -13,8 +14,9 @@ def mppi_weights(S, lambda_):
     return w
 
 
-def mppi_update(U0, eps, S, lambda_):
-    """Alg. 1: U = U0 + sum_k w_k eps_k.
+def mppi_update(U0, eps, S, lambda_, threads=1):
+    """Alg. 1: U = U0 + sum_k w_k eps_k (the sum in dcmppi.control.sums' fixed order, its rows
+    split over `threads`).
 
     Args:
       U0: (N, nu) reference controls. eps: (N, nu, K) perturbations (time-major). S: (K,) costs.
@@ -22,13 +24,13 @@ def mppi_update(U0, eps, S, lambda_):
       U (N, nu), weights (K,).
     """
     w = mppi_weights(S, lambda_)
-    n, nu, k = eps.shape
-    return U0 + (np.reshape(eps, (n * nu, k)) @ w).reshape(n, nu), w
+    return weighted_rows(U0, eps, w, threads), w
 
 
 def effective_sample_size(w):
-    """1 / sum w^2 of normalised weights."""
-    return float(1.0 / np.dot(w, w))
+    """1 / sum w^2 of normalised weights (the sum in dcmppi.control.sums' fixed order)."""
+    w = np.ascontiguousarray(w, dtype=float)
+    return float(1.0 / weighted_rows(np.zeros((1, 1)), w[None, None], w)[0, 0])
 
 
 @register("mppi")
@@ -56,7 +58,7 @@ class MPPI(Controller):
         eps, states, J, S = self.rollouts(state)
         lam = self.temperature(S)
         with self.timer("update"):
-            plan, w = mppi_update(self.U, eps, S, lam)
+            plan, w = mppi_update(self.U, eps, S, lam, self.threads)
         self.record(eps, states, J, S)
         d = self.diagnostics
         d.weights, d.ess, d.lambda_ = w, effective_sample_size(w), lam

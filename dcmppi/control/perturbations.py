@@ -102,11 +102,12 @@ def _draw(key, draw, out, scale, add, j0, j1):
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _draw_box(key, draw, scale, add, U0, lower, upper, u, e, sums, j0, j1):
+def _draw_box(key, draw, scale, add, U0, lower, upper, u, e, sums, products, j0, j1):
     """_draw's eps into the box, row by row while the row is in the cache: u = min(max(U0 + eps,
     lower), upper) and e = u - U0 in columns j0:j1 of u, e (N, nu, K), and when sums is (nu, K)
     the horizon sums of e added to it step by step (projection._clip_box's values; eps itself
-    is not kept)."""
+    is not kept), when products is (nu, K) U0[i, c] e[i, c] likewise (dcmppi.control.sums'
+    importance sums)."""
     bases = _block_bases(key, draw, j0, j1)
     for i in range(u.shape[0]):
         for c in range(u.shape[1]):
@@ -120,6 +121,10 @@ def _draw_box(key, draw, scale, add, U0, lower, upper, u, e, sums, j0, j1):
                 total = sums[c, j0:j1]
                 for j in range(len(o)):
                     total[j] += r[j]
+            if products.shape[0]:
+                total = products[c, j0:j1]
+                for j in range(len(o)):
+                    total[j] += u0 * r[j]
 
 
 _NO_ADD = np.zeros((0, 0))
@@ -146,16 +151,18 @@ def draw_normals(key, draw, shape, scale, add=None, threads=1):
     return out
 
 
-def draw_box(key, draw, scale, add, U0, lower, upper, u, e, sums, cols=None):
+def draw_box(key, draw, scale, add, U0, lower, upper, u, e, sums, cols=None, products=_NO_ADD):
     """The controls of the draw `draw` of the stream `key` (draw_normals' eps = z * scale[:, None]
     (+ add)) in their box, into the samples cols = (j0, j1) of u, e (N, nu, K) (None: all; j0 a
     multiple of BLOCK, as threads.parts gives): u = min(max(U0 + eps, lower), upper), e = u - U0,
     with the horizon sums of e added to sums (nu, K) (a (0, 0) array: none); the values of
-    draw_normals then agents.projection's box, in one pass.
+    draw_normals then agents.projection's box, in one pass. products (nu, K), when given, gets
+    the importance term's sums over the steps, sum_i U0[i, c] e[i, c] (dcmppi.control.sums'
+    values).
 
     scale, lower, upper: (nu,); add: (nu, K) or None; U0: (N, nu).
     """
     j0, j1 = cols or (0, u.shape[2])
     add = _NO_ADD if add is None else np.ascontiguousarray(add, dtype=float)
     _draw_box(np.uint64(key), np.uint64(draw), np.asarray(scale, dtype=float), add, U0, lower,
-              upper, u, e, sums, j0, j1)  # fmt: skip
+              upper, u, e, sums, products, j0, j1)  # fmt: skip

@@ -40,24 +40,87 @@ TRACKING_HEADING = 0.2  # [rad] largest acceptable heading error (Bryson)
 
 
 def tvlqr_gains(A, B, Q, R, Qf):
-    """Time-varying LQR gains for x_{i+1} = A_i x_i + B_i u_i, u_i = -K_i x_i (any A, B).
+    """Time-varying LQR gains for x_{i+1} = A_i x_i + B_i u_i, u_i = -K_i x_i (any A, B), by the
+    Riccati backward pass in compiled loops of a fixed order (no BLAS, whose order follows the
+    processor: the same gains on every machine).
 
     Args:
-      A: (N, n, n), B: (N, n, m); Q, Qf: (n, n); R: (m, m).
+      A: (N, n, n), B: (N, n, m); Q, Qf: (n, n); R: (m, m) or a number (m = 1).
     Returns:
       K: (N, m, n).
     """
-    P = np.array(Qf, dtype=float)
+    A, B = np.asarray(A, dtype=float), np.asarray(B, dtype=float)
     R = np.atleast_2d(np.asarray(R, dtype=float))
-    K = np.empty((len(B), B.shape[2], B.shape[1]))
-    for i in range(len(B) - 1, -1, -1):
-        a, b = A[i], B[i]
-        PA = P @ a
-        H = b.T @ PA  # B^T P A (m, n)
-        K[i] = np.linalg.solve(R + b.T @ P @ b, H)
-        P = Q + a.T @ PA - H.T @ K[i]
-        P = 0.5 * (P + P.T)
+    return _riccati(A, B, np.asarray(Q, dtype=float), R, np.asarray(Qf, dtype=float))
+
+
+@numba.njit(inline="always")
+def _product(X, Y, out, transpose_x):
+    """out = X Y (X^T Y with transpose_x), each entry's sum in index order."""
+    for r in range(out.shape[0]):
+        for c in range(out.shape[1]):
+            s = 0.0
+            for t in range(Y.shape[0]):
+                s += (X[t, r] if transpose_x else X[r, t]) * Y[t, c]
+            out[r, c] = s
+
+
+@numba.njit(cache=True)
+def _riccati(A, B, Q, R, Qf):
+    """tvlqr_gains' pass: P_N = Qf; K_i = (R + B^T P B)^-1 B^T P A (Cholesky), P = Q + A^T P A -
+    (B^T P A)^T K_i, symmetrised."""
+    N, n, m = B.shape
+    P, K = Qf.copy(), np.empty((N, m, n))
+    PA, PB, H, M, L = (np.empty((n, n)), np.empty((n, m)), np.empty((m, n)), np.empty((m, m)),
+                       np.zeros((m, m)))  # fmt: skip
+    APA, HK = np.empty((n, n)), np.empty((n, n))
+    for i in range(N - 1, -1, -1):
+        a, b, k = A[i], B[i], K[i]
+        _product(P, a, PA, False)
+        _product(b, PA, H, True)  # B^T P A (m, n)
+        _product(P, b, PB, False)
+        _product(b, PB, M, True)
+        for r in range(m):
+            for c in range(m):
+                M[r, c] += R[r, c]
+        for c in range(m):  # M = L L^T
+            d = M[c, c]
+            for t in range(c):
+                d -= L[c, t] * L[c, t]
+            L[c, c] = np.sqrt(d)
+            for r in range(c + 1, m):
+                e = M[r, c]
+                for t in range(c):
+                    e -= L[r, t] * L[c, t]
+                L[r, c] = e / L[c, c]
+        for col in range(n):  # k = L^-T L^-1 H, column by column
+            for r in range(m):
+                e = H[r, col]
+                for t in range(r):
+                    e -= L[r, t] * k[t, col]
+                k[r, col] = e / L[r, r]
+            for r in range(m - 1, -1, -1):
+                e = k[r, col]
+                for t in range(r + 1, m):
+                    e -= L[t, r] * k[t, col]
+                k[r, col] = e / L[r, r]
+        _product(a, PA, APA, True)
+        _product(H, k, HK, True)
+        for r in range(n):
+            for c in range(n):
+                P[r, c] = Q[r, c] + APA[r, c] - HK[r, c]
+        for r in range(n):
+            for c in range(r + 1, n):
+                P[r, c] = P[c, r] = 0.5 * (P[r, c] + P[c, r])
     return K
+
+
+def gain_times(gain, error):
+    """gain (m, n) or (n,) times error (n,), each sum in index order (no BLAS). Returns (m,)."""
+    rows = np.atleast_2d(gain).tolist()
+    return np.array(
+        [sum((g * e for g, e in zip(row, error.tolist(), strict=True)), 0.0) for row in rows]
+    )
 
 
 @numba.njit(cache=True)
@@ -142,7 +205,7 @@ class TubeMPPI(MPPI):
             z = state.copy()
         lam = self.temperature(S)  # the chosen solve's (S does not depend on it)
         with timer("update"):
-            plan, w = mppi_update(self.U, eps, S, lam)
+            plan, w = mppi_update(self.U, eps, S, lam, self.threads)
         self.record(eps, states, J, S)
         d = self.diagnostics
         d.weights, d.ess, d.lambda_ = w, effective_sample_size(w), lam
@@ -197,7 +260,7 @@ class TubeMPPI(MPPI):
             c0, c1, b0, b1 = jacobian_terms(theta, omega, self.agent.v, self.dt)
             q_pos, q_theta, r = self._Q[0, 0], self._Q[2, 2], self._R[0, 0]
             gain = dubins_lqr_gain(c0, c1, b0, b1, self.dt, q_pos, q_theta, r)
-            return np.array([gain @ error])
+            return gain_times(gain, error)
         nominal = self.agent.rollout_one(z, plan, self.dt)
         A, B = self.agent.jacobians(nominal, plan, self.dt)
-        return tvlqr_gains(A, B, self._Q, self._R, self._Q)[0] @ error
+        return gain_times(tvlqr_gains(A, B, self._Q, self._R, self._Q)[0], error)

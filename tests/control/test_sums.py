@@ -1,0 +1,113 @@
+"""The planners' sums in a fixed order: their values bit for bit, on any thread count and under
+any BLAS kernel family."""
+
+import json
+import os
+import platform
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from dcmppi.control.mppi import effective_sample_size, mppi_update, mppi_weights
+from dcmppi.control.sums import LANES, importance, weighted_rows
+from dcmppi.control.tube import tvlqr_gains
+
+
+def lanes_reference(U0, eps, w):
+    """weighted_rows' order in Python floats: LANES interleaved sums, then the tail's."""
+    n, nu, k = eps.shape
+    whole = k - k % LANES
+    out = np.empty((n, nu))
+    for i in range(n):
+        for c in range(nu):
+            row = [float(x) for x in eps[i, c]]
+            s = [0.0] * LANES
+            for j in range(whole):
+                s[j % LANES] += float(w[j]) * row[j]
+            tail = 0.0
+            for j in range(whole, k):
+                tail += float(w[j]) * row[j]
+            lanes = ((s[0] + s[1]) + (s[2] + s[3])) + ((s[4] + s[5]) + (s[6] + s[7]))
+            out[i, c] = float(U0[i, c]) + (lanes + tail)
+    return out
+
+
+@pytest.mark.parametrize("k", [1, 7, 8, 13, 64, 200, 517])
+def test_weighted_rows_sum_in_their_order_on_any_thread_count(k):
+    rng = np.random.default_rng(k)
+    U0, eps = rng.normal(size=(70, 2)), rng.normal(size=(70, 2, k)) * 10.0 ** rng.integers(-3, 4)
+    w = mppi_weights(rng.exponential(50.0, k), 7.0)
+    want = lanes_reference(U0, eps, w)
+    for threads in (1, 2, 3):
+        assert weighted_rows(U0, eps, w, threads).tobytes() == want.tobytes()
+    np.testing.assert_allclose(want, U0 + eps @ w, rtol=1e-12, atol=1e-14)  # the same sum
+    U, w2 = mppi_update(U0, eps, rng.exponential(5.0, k), 3.0, threads=2)
+    assert U.tobytes() == lanes_reference(U0, eps, w2).tobytes()
+    assert effective_sample_size(w) == 1.0 / lanes_reference(np.zeros((1, 1)), w[None, None], w)
+    with pytest.raises(ValueError, match="needs U0"):
+        weighted_rows(U0[:-1], eps, w)
+
+
+def test_importance_sums_the_steps_in_order():
+    rng = np.random.default_rng(1)
+    U0, e, weight = rng.normal(size=(40, 2)), rng.normal(size=(40, 2, 300)), np.array([0.3, 7.0])
+    want = np.empty(300)
+    for k in range(300):
+        sums = [0.0, 0.0]
+        for i in range(40):
+            for c in range(2):
+                sums[c] += float(U0[i, c]) * float(e[i, c, k])
+        want[k] = float(weight[0]) * sums[0] + float(weight[1]) * sums[1]
+    assert importance(U0, e, weight).tobytes() == want.tobytes()
+    assert importance(U0, e[:, :, 64:200], weight).tobytes() == want[64:200].tobytes()  # a view
+
+
+def test_lqr_gains_of_several_controls_equal_the_linear_algebra():
+    """The compiled Riccati pass (Cholesky, two controls) against numpy's products and solve."""
+    rng = np.random.default_rng(2)
+    N, n, m = 30, 3, 2
+    A = np.eye(n) + 0.1 * rng.normal(size=(N, n, n))
+    B = 0.1 * rng.normal(size=(N, n, m))
+    Q, R = np.diag([3.0, 2.0, 0.5]), np.array([[1.0, 0.2], [0.2, 0.7]])
+    P, want = Q.copy(), np.empty((N, m, n))
+    for i in range(N - 1, -1, -1):
+        H = B[i].T @ P @ A[i]
+        want[i] = np.linalg.solve(R + B[i].T @ P @ B[i], H)
+        P = Q + A[i].T @ P @ A[i] - H.T @ want[i]
+        P = 0.5 * (P + P.T)
+    np.testing.assert_allclose(tvlqr_gains(A, B, Q, R, Q), want, rtol=1e-10, atol=1e-13)
+
+
+_KERNELS = """
+import json, sys
+from dcmppi.bench.provenance import kernels
+from dcmppi.bench.timing.cases import FINGERPRINT_CASES
+from dcmppi.bench.timing.fingerprint import fingerprint
+cases = [c for c in FINGERPRINT_CASES if c.label in sys.argv[1:]]
+print(json.dumps([kernels(), [r["sha1"] for r in fingerprint(cases, 40)]]))
+"""
+
+
+@pytest.mark.skipif(platform.machine() not in ("x86_64", "AMD64"), reason="x86 kernel names")
+def test_plans_do_not_depend_on_the_blas_kernels():
+    """The same closed loops under OpenBLAS's kernels for this processor and under its plain SSE
+    ones (OPENBLAS_CORETYPE): the planners' sums and the LQR gains take no BLAS, so the hashes
+    are the same."""
+    labels = ["mppi tv", "clustered", "tube unicycle", "mppi unicycle mixed"]
+
+    def run(**env):
+        out = subprocess.run(
+            [sys.executable, "-c", _KERNELS, *labels],
+            env={**os.environ, **env},
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        return json.loads(out.stdout.strip().splitlines()[-1])
+
+    (here, hashes), (plain, plain_hashes) = run(), run(OPENBLAS_CORETYPE="Prescott")
+    if here == plain:
+        pytest.skip(f"this machine's BLAS kernels are the plain ones already ({here})")
+    assert len(hashes) >= len(labels) and hashes == plain_hashes, (here, plain)

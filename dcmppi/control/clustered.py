@@ -237,7 +237,7 @@ class ClusteredMPPI(MPPI):
         lam = d.lambda_ = self.temperature(S)  # one lambda, over all samples, for every cluster
         if labels.max(initial=-1) < 0:  # no cluster: Alg. 1 over all samples
             with timer("update"):
-                plan, w = mppi_update(self.U, eps, S, lam, self.threads)
+                plan, w = mppi_update(self.U, eps, S, lam)
             d.chosen, d.cluster_controls = -1, np.zeros((0, self.N, self.nu))
             d.cluster_costs = np.zeros(0)
         else:

@@ -14,9 +14,8 @@ def mppi_weights(S, lambda_):
     return w
 
 
-def mppi_update(U0, eps, S, lambda_, threads=1):
-    """Alg. 1: U = U0 + sum_k w_k eps_k (the sum in dcmppi.control.sums' fixed order, its rows
-    split over `threads`).
+def mppi_update(U0, eps, S, lambda_):
+    """Alg. 1: U = U0 + sum_k w_k eps_k (the sum in dcmppi.control.sums' fixed order).
 
     Args:
       U0: (N, nu) reference controls. eps: (N, nu, K) perturbations (time-major). S: (K,) costs.
@@ -24,7 +23,7 @@ def mppi_update(U0, eps, S, lambda_, threads=1):
       U (N, nu), weights (K,).
     """
     w = mppi_weights(S, lambda_)
-    return weighted_rows(U0, eps, w, threads), w
+    return weighted_rows(U0, eps, w), w
 
 
 def effective_sample_size(w):
@@ -58,7 +57,7 @@ class MPPI(Controller):
         eps, states, J, S = self.rollouts(state)
         lam = self.temperature(S)
         with self.timer("update"):
-            plan, w = mppi_update(self.U, eps, S, lam, self.threads)
+            plan, w = mppi_update(self.U, eps, S, lam)
         self.record(eps, states, J, S)
         d = self.diagnostics
         d.weights, d.ess, d.lambda_ = w, effective_sample_size(w), lam

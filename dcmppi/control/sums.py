@@ -3,49 +3,51 @@
 BLAS's products sum in an order that follows the processor's kernel family (OpenBLAS picks
 Haswell, SkylakeX, Zen, ... kernels at run time), so plans made with them differ in their last
 bits from one machine to another. These loops fix the order in their source:
-- `weighted_rows`: U0 + sum_k w_k eps_k (Alg. 1's update), each row's sum over k in LANES
-  interleaved partial sums (lane l takes k = l, l + LANES, ..; the tail's k in order into a sum
-  of its own) added as ((s0 + s1) + (s2 + s3)) + ((s4 + s5) + (s6 + s7)) + tail: each lane is its
-  own chain, so the loop vectorises without reassociation; the rows split over threads;
+- `weighted_rows`: U0 + sum_k w_k eps_k (Alg. 1's update), each row's sum by halving, the
+  upper half added to the lower half until one term remains: every pass is a loop over
+  contiguous memory that vectorises as written, where a sum in index order would not vectorise
+  and a reassociated one would take the order of the processor's vector width (on the calling
+  thread: handing rows to a second thread costs these VMs about as long as the whole sum,
+  docs/performance.md);
 - `importance`: sum_c w_c sum_i U0[i, c] e[i, c, k] with i in order, per sample k (the draws'
   pass accumulates the same sums, dcmppi.control.perturbations.draw_box).
 No fused multiply-add (numba compiles without fast-math): the same values on every machine and
-for every number of threads (tests).
+for every split of the rows or samples (tests).
 """
 
 import numba
 import numpy as np
 
-from .threads import parts, run
-
-LANES = 8
-
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _weighted_rows(U0, eps, w, out, r0, r1):
-    """out[r] = U0[r] + sum_k w[k] eps[r, k] for the rows r0:r1 of eps (R, K)."""
+    """out[r] = U0[r] + sum_k w[k] eps[r, k] for the rows r0:r1 of eps (R, K), each sum by
+    halving: with h = n // 2 and m = n - h, p_i = p_i + p_(m + i) for i < h (p = the products
+    w eps at first) until n = 1 (an odd n keeps its middle term for the next pass)."""
     k = eps.shape[1]
-    whole = k - k % LANES
+    p = np.empty(k)
+    h = k // 2
+    m = k - h
+    w_low, w_high = w[:h], w[m:]
     for r in range(r0, r1):
         row = eps[r]
-        s0 = s1 = s2 = s3 = s4 = s5 = s6 = s7 = 0.0
-        for j in range(0, whole, LANES):
-            s0 += w[j] * row[j]
-            s1 += w[j + 1] * row[j + 1]
-            s2 += w[j + 2] * row[j + 2]
-            s3 += w[j + 3] * row[j + 3]
-            s4 += w[j + 4] * row[j + 4]
-            s5 += w[j + 5] * row[j + 5]
-            s6 += w[j + 6] * row[j + 6]
-            s7 += w[j + 7] * row[j + 7]
-        tail = 0.0
-        for j in range(whole, k):
-            tail += w[j] * row[j]
-        out[r] = U0[r] + ((((s0 + s1) + (s2 + s3)) + ((s4 + s5) + (s6 + s7))) + tail)
+        low, high, first = row[:h], row[m:], p[:h]
+        for i in range(h):
+            first[i] = w_low[i] * low[i] + w_high[i] * high[i]
+        if m > h:
+            p[h] = w[h] * row[h]
+        n = m
+        while n > 1:
+            half = n // 2
+            a, b = p[:half], p[n - half : n]
+            for i in range(half):
+                a[i] = a[i] + b[i]
+            n -= half
+        out[r] = U0[r] + (p[0] if k else 0.0)
 
 
-def weighted_rows(U0, eps, w, threads=1):
-    """U0 + sum_k w_k eps[..., k] in the fixed order above, its rows split over `threads`.
+def weighted_rows(U0, eps, w):
+    """U0 + sum_k w_k eps[..., k] in the fixed order above.
 
     Args:
       U0: (N, nu). eps: (N, nu, K). w: (K,).
@@ -58,11 +60,15 @@ def weighted_rows(U0, eps, w, threads=1):
             f"weighted_rows needs U0 (N, nu) and w (K,) for eps (N, nu, K) = {eps.shape}; got "
             f"{np.shape(U0)} and {np.shape(w)}"
         )
-    flat = np.reshape(eps, (n * nu, k))
-    u0 = np.ascontiguousarray(U0, dtype=float).reshape(n * nu)
-    w = np.ascontiguousarray(w, dtype=float)
     out = np.empty(n * nu)
-    run(lambda r0, r1: _weighted_rows(u0, flat, w, out, r0, r1), parts(n * nu, threads))
+    _weighted_rows(
+        np.ascontiguousarray(U0, dtype=float).reshape(n * nu),
+        np.reshape(eps, (n * nu, k)),
+        np.ascontiguousarray(w, dtype=float),
+        out,
+        0,
+        n * nu,
+    )
     return out.reshape(n, nu)
 
 

@@ -4,10 +4,9 @@ A part is a range j0:j1 of the samples. Its controls, rollouts, costs and import
 depend on its samples alone, and the kernels do the same arithmetic for every sample, so the
 parts give the values of the whole batch, bit for bit: the part boundaries are multiples of
 ALIGN samples, where the perturbation draws' streams begin (dcmppi.control.perturbations: the
-draws are split the same way). Of the cross-sample work, Alg. 1's update splits its rows
-(dcmppi.control.sums: each row's sum in the same order on any thread); the weights, DBSCAN and
-the cluster updates stay on the calling thread, in their order. The compiled kernels release
-the GIL (numba's nogil), as numpy's loops do.
+draws are split the same way). The cross-sample work (the weights, the updates, DBSCAN) stays
+on the calling thread, in its order. The compiled kernels release the GIL (numba's nogil), as
+numpy's loops do.
 """
 
 import concurrent.futures

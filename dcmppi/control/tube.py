@@ -205,7 +205,7 @@ class TubeMPPI(MPPI):
             z = state.copy()
         lam = self.temperature(S)  # the chosen solve's (S does not depend on it)
         with timer("update"):
-            plan, w = mppi_update(self.U, eps, S, lam, self.threads)
+            plan, w = mppi_update(self.U, eps, S, lam)
         self.record(eps, states, J, S)
         d = self.diagnostics
         d.weights, d.ess, d.lambda_ = w, effective_sample_size(w), lam

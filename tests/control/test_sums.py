@@ -1,5 +1,5 @@
-"""The planners' sums in a fixed order: their values bit for bit, on any thread count and under
-any BLAS kernel family."""
+"""The planners' sums in a fixed order: their values bit for bit, and under any BLAS kernel
+family."""
 
 import json
 import os
@@ -11,41 +11,36 @@ import numpy as np
 import pytest
 
 from dcmppi.control.mppi import effective_sample_size, mppi_update, mppi_weights
-from dcmppi.control.sums import LANES, importance, weighted_rows
+from dcmppi.control.sums import importance, weighted_rows
 from dcmppi.control.tube import tvlqr_gains
 
 
-def lanes_reference(U0, eps, w):
-    """weighted_rows' order in Python floats: LANES interleaved sums, then the tail's."""
+def halving_reference(U0, eps, w):
+    """weighted_rows' order in Python floats: the upper half onto the lower until one is left."""
     n, nu, k = eps.shape
-    whole = k - k % LANES
     out = np.empty((n, nu))
     for i in range(n):
         for c in range(nu):
-            row = [float(x) for x in eps[i, c]]
-            s = [0.0] * LANES
-            for j in range(whole):
-                s[j % LANES] += float(w[j]) * row[j]
-            tail = 0.0
-            for j in range(whole, k):
-                tail += float(w[j]) * row[j]
-            lanes = ((s[0] + s[1]) + (s[2] + s[3])) + ((s[4] + s[5]) + (s[6] + s[7]))
-            out[i, c] = float(U0[i, c]) + (lanes + tail)
+            p = [float(a) * float(b) for a, b in zip(w, eps[i, c], strict=True)]
+            while len(p) > 1:
+                half = len(p) // 2
+                keep = len(p) - half
+                p = [p[j] + p[keep + j] for j in range(half)] + p[half:keep]
+            out[i, c] = float(U0[i, c]) + (p[0] if p else 0.0)
     return out
 
 
 @pytest.mark.parametrize("k", [1, 7, 8, 13, 64, 200, 517])
-def test_weighted_rows_sum_in_their_order_on_any_thread_count(k):
+def test_weighted_rows_sum_in_their_order(k):
     rng = np.random.default_rng(k)
     U0, eps = rng.normal(size=(70, 2)), rng.normal(size=(70, 2, k)) * 10.0 ** rng.integers(-3, 4)
     w = mppi_weights(rng.exponential(50.0, k), 7.0)
-    want = lanes_reference(U0, eps, w)
-    for threads in (1, 2, 3):
-        assert weighted_rows(U0, eps, w, threads).tobytes() == want.tobytes()
+    want = halving_reference(U0, eps, w)
+    assert weighted_rows(U0, eps, w).tobytes() == want.tobytes()
     np.testing.assert_allclose(want, U0 + eps @ w, rtol=1e-12, atol=1e-14)  # the same sum
-    U, w2 = mppi_update(U0, eps, rng.exponential(5.0, k), 3.0, threads=2)
-    assert U.tobytes() == lanes_reference(U0, eps, w2).tobytes()
-    assert effective_sample_size(w) == 1.0 / lanes_reference(np.zeros((1, 1)), w[None, None], w)
+    U, w2 = mppi_update(U0, eps, rng.exponential(5.0, k), 3.0)
+    assert U.tobytes() == halving_reference(U0, eps, w2).tobytes()
+    assert effective_sample_size(w) == 1.0 / halving_reference(np.zeros((1, 1)), w[None, None], w)
     with pytest.raises(ValueError, match="needs U0"):
         weighted_rows(U0[:-1], eps, w)
 

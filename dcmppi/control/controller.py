@@ -60,9 +60,10 @@ class Controller:
       resolution: cost-map cell size [m].
       obstacle_margin: added to every moving obstacle's radius in the cost [m].
       threads: threads that share the samples' draws, controls, rollouts, costs and importance
-        terms (dcmppi.control.threads); the plans are the same for every number (with BLAS on
-        one thread). Default 1: a benchmark's workers use the cores; two threads pay from about
-        10^5 state-steps (K x N) per step (docs/performance.md).
+        terms (dcmppi.control.threads); the plans are the same for every number (the EKF
+        predictor's small products call the BLAS: keep it on one thread). Default 1: a
+        benchmark's workers use the cores; two threads pay from about 10^5 state-steps (K x N)
+        per step (docs/performance.md).
       prediction: the obstacle predictor: a registered name (dcmppi.control.predictors) or
         package.module:ClassName; default `default_prediction` ("frozen"; dc: "prior"). Its
         own parameters go alongside.

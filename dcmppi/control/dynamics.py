@@ -8,7 +8,9 @@ that period with the speed v and turn rate omega held constant (a circular arc):
 
 with sinc(a) = sin(a) / a. Rollouts are time-major internally, (N + 1, 3, K): row i holds x, y and
 theta of all K rollouts at step i. The running sums over the horizon are one numba loop per
-step whose sines and cosines (dcmppi.control.libm) vectorise (docs/performance.md).
+step that vectorises: each heading's cosine and sine are turned from step to step by the
+arc's (cos a, sin a), from dcmppi.control.libm's sincos of the start headings
+(docs/performance.md).
 """
 
 import numba
@@ -135,7 +137,7 @@ def _arcs(out, u, half_dt, vdt, j0, j1):
     (dcmppi.control.libm's sincos), then of theta_i + a_i and theta_i + 2 a_i, turning by
     (cos a_i, sin a_i) (their series below _SINC_SERIES_MAX, libm's sincos above): a few
     products per step where a full sine and cosine would reduce the angle and evaluate two
-    polynomials; the rounding this carries stays near 1e-15 over hundreds of steps (a test).
+    polynomials; the positions stay within 2e-13 m of the closed form over 400 steps (a test).
     The loops vectorise.
     out: (3, n + 1, S, K); u: (n, 1, K) turn rates (one speed: vdt = v dt) or (n, 2, K)
     speeds and turn rates (vdt = dt)."""

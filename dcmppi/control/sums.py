@@ -11,39 +11,45 @@ bits from one machine to another. These loops fix the order in their source:
   docs/performance.md);
 - `importance`: sum_c w_c sum_i U0[i, c] e[i, c, k] with i in order, per sample k (the draws'
   pass accumulates the same sums, dcmppi.control.perturbations.draw_box).
-No fused multiply-add (numba compiles without fast-math): the same values on every machine and
-for every split of the rows or samples (tests).
+No fused multiply-add (numba compiles without fast-math): the same values on every machine, and
+for every split of the samples over threads (tests). `halve` is the halving sum itself (the
+temperature search's sums, dcmppi.control.temperature).
 """
 
 import numba
 import numpy as np
 
 
+@numba.njit(inline="always")
+def halve(p, n):
+    """sum(p[:n]) by halving, in place: with h = n // 2, p_i += p_(n - h + i) for i < h, then
+    n -= h, until n = 1 (an odd n keeps its middle term for the next pass). 0.0 for n = 0."""
+    while n > 1:
+        half = n // 2
+        a, b = p[:half], p[n - half : n]
+        for i in range(half):
+            a[i] = a[i] + b[i]
+        n -= half
+    return p[0] if n else 0.0
+
+
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _weighted_rows(U0, eps, w, out, r0, r1):
-    """out[r] = U0[r] + sum_k w[k] eps[r, k] for the rows r0:r1 of eps (R, K), each sum by
-    halving: with h = n // 2 and m = n - h, p_i = p_i + p_(m + i) for i < h (p = the products
-    w eps at first) until n = 1 (an odd n keeps its middle term for the next pass)."""
+def _weighted_rows(U0, eps, w, out):
+    """out[r] = U0[r] + sum_k w[k] eps[r, k] for every row of eps (R, K), each sum by `halve`,
+    its first pass on the products (w_i eps_i + w_(m + i) eps_(m + i), m = K - K // 2)."""
     k = eps.shape[1]
     p = np.empty(k)
     h = k // 2
     m = k - h
     w_low, w_high = w[:h], w[m:]
-    for r in range(r0, r1):
+    for r in range(eps.shape[0]):
         row = eps[r]
         low, high, first = row[:h], row[m:], p[:h]
         for i in range(h):
             first[i] = w_low[i] * low[i] + w_high[i] * high[i]
         if m > h:
             p[h] = w[h] * row[h]
-        n = m
-        while n > 1:
-            half = n // 2
-            a, b = p[:half], p[n - half : n]
-            for i in range(half):
-                a[i] = a[i] + b[i]
-            n -= half
-        out[r] = U0[r] + (p[0] if k else 0.0)
+        out[r] = U0[r] + halve(p, m)
 
 
 def weighted_rows(U0, eps, w):
@@ -66,8 +72,6 @@ def weighted_rows(U0, eps, w):
         np.reshape(eps, (n * nu, k)),
         np.ascontiguousarray(w, dtype=float),
         out,
-        0,
-        n * nu,
     )
     return out.reshape(n, nu)
 

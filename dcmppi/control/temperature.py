@@ -23,14 +23,16 @@ g(t) = log ESS(e^t) - log(ess_target K) with the analytic slope
 dg/dt = 2 beta (E_w[S] - E_{w^2}[S]) (beta = 1 / lambda; E_{w^2}: under weights proportional to
 w^2), until ESS is within ESS_BAND of the target or the bracket on log lambda is narrower than
 LOG_LAMBDA_TOL. One compiled pass over the K samples per iteration, with an exp of its own
-(pure arithmetic, so the loop vectorises; relative error 3e-10); the plan's weights still come
-from np.exp in mppi_weights.
+(pure arithmetic, so the loop vectorises; relative error 3e-10) and its sums by halving (one
+order on every processor); the plan's weights still come from np.exp in mppi_weights.
 """
 
 import math
 
 import numba
 import numpy as np
+
+from .sums import halve
 
 # Default share of K: about the ESS of the static forest at lambda = 1, where the paper's
 # table is reproduced, and below the 16 % of the samples in one DBSCAN ball (one mode).
@@ -109,19 +111,21 @@ def _choose(S, log_target, guess):
     return math.exp(best_t)
 
 
-@numba.njit(cache=True, fastmath={"reassoc"})
+@numba.njit(cache=True)
 def _log_ess(S, low, beta):
     """log ESS of the weights exp(-beta (S - low)) (S (K,) >= low) and its slope
     d/d log lambda = 2 beta (E_w[S] - E_{w^2}[S]).
 
     exp(x) = 2^n exp(f), |f| <= ln 2 / 2: exp(f) by its Taylor polynomial of degree 8, 2^n from
     the exponent bits; x below -300 counts as -300 (its square stays a normal number, beside the
-    least cost's weight 1). The compiler may reorder the sums (vectorised), so lambda's last
-    bits may differ between CPUs, as BLAS's sums do.
+    least cost's weight 1). The terms in one pass that vectorises, their four sums by halving
+    (dcmppi.control.sums.halve): one order on every processor.
     """
-    s0 = s1 = s2 = s3 = 0.0  # sum w, sum w^2, sum w S, sum w^2 S
-    for k in range(len(S)):
-        x = max(beta * (low - S[k]), -300.0)
+    k = len(S)
+    terms = np.empty((4, k))  # w, w^2, w S, w^2 S
+    t0, t1, t2, t3 = terms[0], terms[1], terms[2], terms[3]
+    for j in range(k):
+        x = max(beta * (low - S[j]), -300.0)
         n = math.floor(x * LOG2E + 0.5)
         f = x - n * LN2_HI - n * LN2_LO
         p = 1.0 / 40320.0
@@ -129,8 +133,9 @@ def _log_ess(S, low, beta):
             p = p * f + c
         w = p * np.int64((np.int64(n) + 1023) << 52).view(np.float64)
         ww = w * w
-        s0 += w
-        s1 += ww
-        s2 += w * S[k]
-        s3 += ww * S[k]
+        t0[j] = w
+        t1[j] = ww
+        t2[j] = w * S[j]
+        t3[j] = ww * S[j]
+    s0, s1, s2, s3 = halve(t0, k), halve(t1, k), halve(t2, k), halve(t3, k)
     return 2.0 * math.log(s0) - math.log(s1), 2.0 * beta * (s2 / s0 - s3 / s1)

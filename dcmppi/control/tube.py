@@ -51,7 +51,17 @@ def tvlqr_gains(A, B, Q, R, Qf):
     """
     A, B = np.asarray(A, dtype=float), np.asarray(B, dtype=float)
     R = np.atleast_2d(np.asarray(R, dtype=float))
-    return _riccati(A, B, np.asarray(Q, dtype=float), R, np.asarray(Qf, dtype=float))
+    Q, Qf = np.asarray(Q, dtype=float), np.asarray(Qf, dtype=float)
+    N, n, m = B.shape if B.ndim == 3 else (0, 0, 0)
+    if B.ndim != 3 or A.shape != (N, n, n) or {Q.shape, Qf.shape} != {(n, n)} or R.shape != (m, m):
+        raise ValueError(
+            "tvlqr_gains needs A (N, n, n), B (N, n, m), Q and Qf (n, n), R (m, m); got "
+            f"{A.shape}, {B.shape}, {Q.shape}, {Qf.shape}, {R.shape}"
+        )
+    K = _riccati(A, B, Q, R, Qf)
+    if not np.isfinite(K).all():
+        raise ValueError("tvlqr_gains: R + B^T P B is not positive definite (R must be)")
+    return K
 
 
 @numba.njit(inline="always")
@@ -65,7 +75,7 @@ def _product(X, Y, out, transpose_x):
             out[r, c] = s
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _riccati(A, B, Q, R, Qf):
     """tvlqr_gains' pass: P_N = Qf; K_i = (R + B^T P B)^-1 B^T P A (Cholesky), P = Q + A^T P A -
     (B^T P A)^T K_i, symmetrised."""

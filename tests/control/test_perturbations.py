@@ -181,3 +181,26 @@ def test_a_replaced_sample_is_used():
     ctrl.act(np.zeros(3), goal)
     d = ctrl.diagnostics
     assert (np.abs(d.warm_start[None] + d.eps) > ctrl.agent.upper[0]).mean() > 0.1
+
+
+def test_a_replaced_importance_is_used():
+    """The draws' pass accumulates the importance term's sums only for Controller's own
+    importance(): a subclass's or an instance's is called instead, on one thread or two."""
+
+    class Without(MPPI):
+        def importance(self, U0, eps):
+            return np.zeros(eps.shape[2])
+
+    goal = np.array([5.0, 1.0])
+    for threads in (1, 2):
+        params = dict(agent="unicycle", K=200, N=9, seed=1, perturbation="time_varying")
+        ctrl = make_controller("mppi", threads=threads, **params)
+        ctrl.act(np.zeros(3), goal)
+        assert not np.array_equal(ctrl.diagnostics.S, ctrl.diagnostics.J)  # a term to replace
+        ctrl = Without(threads=threads, **params)
+        ctrl.act(np.zeros(3), goal)
+        assert np.array_equal(ctrl.diagnostics.S, ctrl.diagnostics.J)
+        ctrl = make_controller("mppi", threads=threads, **params)
+        ctrl.importance = lambda U0, eps: np.zeros(eps.shape[2])
+        ctrl.act(np.zeros(3), goal)
+        assert np.array_equal(ctrl.diagnostics.S, ctrl.diagnostics.J)

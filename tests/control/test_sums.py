@@ -30,19 +30,28 @@ def halving_reference(U0, eps, w):
     return out
 
 
-@pytest.mark.parametrize("k", [1, 7, 8, 13, 64, 200, 517])
+@pytest.mark.parametrize("k", [2, 3, 7, 8, 13, 64, 200, 517])
 def test_weighted_rows_sum_in_their_order(k):
     rng = np.random.default_rng(k)
     U0, eps = rng.normal(size=(70, 2)), rng.normal(size=(70, 2, k)) * 10.0 ** rng.integers(-3, 4)
     w = mppi_weights(rng.exponential(50.0, k), 7.0)
     want = halving_reference(U0, eps, w)
     assert weighted_rows(U0, eps, w).tobytes() == want.tobytes()
+    wide = np.repeat(eps, 2, axis=2)[..., ::2]  # a strided view of the same values
+    assert weighted_rows(U0, wide, w).tobytes() == want.tobytes()
     np.testing.assert_allclose(want, U0 + eps @ w, rtol=1e-12, atol=1e-14)  # the same sum
     U, w2 = mppi_update(U0, eps, rng.exponential(5.0, k), 3.0)
     assert U.tobytes() == halving_reference(U0, eps, w2).tobytes()
     assert effective_sample_size(w) == 1.0 / halving_reference(np.zeros((1, 1)), w[None, None], w)
     with pytest.raises(ValueError, match="needs U0"):
         weighted_rows(U0[:-1], eps, w)
+
+
+def test_weighted_rows_of_no_samples_and_of_one():
+    U0 = np.array([[0.5, -2.0]])
+    assert np.array_equal(weighted_rows(U0, np.zeros((1, 2, 0)), np.zeros(0)), U0)
+    got = weighted_rows(U0, np.array([[[3.0], [0.25]]]), np.array([0.5]))
+    assert got.tolist() == [[2.0, -1.875]]
 
 
 def test_importance_sums_the_steps_in_order():
@@ -73,6 +82,10 @@ def test_lqr_gains_of_several_controls_equal_the_linear_algebra():
         P = Q + A[i].T @ P @ A[i] - H.T @ want[i]
         P = 0.5 * (P + P.T)
     np.testing.assert_allclose(tvlqr_gains(A, B, Q, R, Q), want, rtol=1e-10, atol=1e-13)
+    with pytest.raises(ValueError, match=r"R \(m, m\)"):
+        tvlqr_gains(A, B, Q, 1.0, Q)  # one weight for two controls
+    with pytest.raises(ValueError, match="not positive definite"):
+        tvlqr_gains(A, B, Q, -np.eye(2), Q)
 
 
 _KERNELS = """

@@ -4,7 +4,7 @@ import numpy as np
 
 from .controller import Controller
 from .registry import register
-from .sums import weighted_rows
+from .sums import sum_of_squares, weighted_rows
 
 
 def mppi_weights(S, lambda_):
@@ -28,8 +28,7 @@ def mppi_update(U0, eps, S, lambda_):
 
 def effective_sample_size(w):
     """1 / sum w^2 of normalised weights (the sum in dcmppi.control.sums' fixed order)."""
-    w = np.ascontiguousarray(w, dtype=float)
-    return float(1.0 / weighted_rows(np.zeros((1, 1)), w[None, None], w)[0, 0])
+    return float(1.0 / sum_of_squares(np.ascontiguousarray(w, dtype=float)))
 
 
 @register("mppi")

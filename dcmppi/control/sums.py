@@ -76,6 +76,13 @@ def weighted_rows(U0, eps, w):
     return out.reshape(n, nu)
 
 
+@numba.njit(cache=True)
+def sum_of_squares(w):
+    """sum w_k^2 of a (K,) array by `halve` (the values of weighted_rows(0, w, w))."""
+    p = w * w
+    return halve(p, len(p))
+
+
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _accumulate(U0, e, acc):
     """acc[c, k] += sum_i U0[i, c] e[i, c, k], i in order. e: (N, nu, k); acc: (nu, k)."""
@@ -105,7 +112,13 @@ def importance(U0, e, weight):
     Returns:
       (K,).
     """
-    acc = np.zeros((e.shape[1], e.shape[2]))
+    n, nu, k = e.shape
+    if np.shape(U0) != (n, nu) or np.shape(weight) != (nu,):
+        raise ValueError(
+            f"importance needs U0 (N, nu) and weight (nu,) for e (N, nu, K) = {e.shape}; got "
+            f"{np.shape(U0)} and {np.shape(weight)}"
+        )
+    acc = np.zeros((nu, k))
     _accumulate(np.ascontiguousarray(U0, dtype=float), e, acc)
     return importance_of(acc, weight)
 

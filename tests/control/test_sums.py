@@ -66,6 +66,8 @@ def test_importance_sums_the_steps_in_order():
         want[k] = float(weight[0]) * sums[0] + float(weight[1]) * sums[1]
     assert importance(U0, e, weight).tobytes() == want.tobytes()
     assert importance(U0, e[:, :, 64:200], weight).tobytes() == want[64:200].tobytes()  # a view
+    with pytest.raises(ValueError, match="importance needs U0"):
+        importance(U0, e, weight[:1])
 
 
 def test_lqr_gains_of_several_controls_equal_the_linear_algebra():

@@ -180,10 +180,12 @@ def _occupied(flat, columns, origin, limit, inv, x, y):
 @numba.njit(inline="always")
 def _index(x, origin, inv, limit):
     """Cell index of coordinate x clipped to [0, limit]; nan goes to 0 (selects, not min/max,
-    whose nan handling depends on the argument order)."""
+    whose nan handling depends on the argument order). Truncated to 32 bits, then widened: the
+    same index (limit < MAX_CELLS < 2^31), but AVX2 converts four floats to 32-bit integers at
+    once and 64-bit ones only one at a time, so the loops vectorise."""
     v = (x - origin) * inv
     v = v if v > 0.0 else 0.0
-    return int(v if v < limit else limit)
+    return np.int64(np.int32(v if v < limit else limit))
 
 
 @numba.njit(cache=True)

@@ -65,7 +65,7 @@ def _bits(typingctx, x):
 
 
 @intrinsic
-def _from_bits(typingctx, bits):
+def from_bits(typingctx, bits):
     """The float64 of IEEE bits given as an int64."""
 
     def codegen(context, builder, signature, args):
@@ -79,7 +79,7 @@ def log_unit(u):
     """ln u for normal u in (0, 1]: u = 2^e m with m in [sqrt(2) / 2, sqrt(2)), then e_log.c's
     series in s = (m - 1) / (m + 1)."""
     b = _bits(u)
-    m = _from_bits((b & 0x000FFFFFFFFFFFFF) | 0x3FF0000000000000)  # in [1, 2)
+    m = from_bits((b & 0x000FFFFFFFFFFFFF) | 0x3FF0000000000000)  # in [1, 2)
     big = np.float64(m > _SQRT2)
     m = m * (1.0 - 0.5 * big)
     k = np.float64((b >> 52) - 1023) + big

@@ -16,15 +16,17 @@ Integer arithmetic and rounded float operations only: the same values on every m
 import numba
 import numpy as np
 
-from .libm import log_unit, sincos
+from .libm import from_bits, log_unit, sincos
 from .threads import ALIGN, parts, run
 
 BLOCK = ALIGN  # samples per stream: a part of a step split over threads is whole blocks
 
 _GAMMA = np.uint64(0x9E3779B97F4A7C15)  # SplitMix64's Weyl increment (2^64 / golden ratio)
 _M1, _M2 = np.uint64(0xBF58476D1CE4E5B9), np.uint64(0x94D049BB133111EB)
-_U1, _U11, _U27, _U30, _U31 = (np.uint64(b) for b in (1, 11, 27, 30, 31))
+_U1, _U11, _U12, _U27, _U30, _U31 = (np.uint64(b) for b in (1, 11, 12, 27, 30, 31))
 _ULP = 1.0 / 9007199254740992.0  # 2^-53
+_ONE_BITS = np.int64(0x3FF0000000000000)  # of 1.0
+_ULP_BITS = np.int64(0x3CA0000000000000)  # of 2^-53
 _TWO_PI = 6.283185307179586
 
 
@@ -37,10 +39,20 @@ def _mix(z):
 
 
 @numba.njit(inline="always")
+def _unit(z):
+    """(z >> 11) 2^-53, exactly, in [0, 1): the top 52 bits as the mantissa of a number in
+    [1, 2) less 1, plus 2^-53 where the 53rd bit is set (both sums exact), so that the loops
+    vectorise: AVX2 has no conversion of 64-bit integers to floats, which LLVM then makes one
+    element at a time."""
+    top = from_bits(np.int64(z >> _U12) | _ONE_BITS) - 1.0
+    return top + from_bits(-np.int64((z >> _U11) & _U1) & _ULP_BITS)
+
+
+@numba.njit(inline="always")
 def _pair(base, n, s):
     """Two normals times s from words n and n + 1 of the stream base (Box-Muller)."""
-    u1 = np.float64(np.int64(_mix(base + n * _GAMMA) >> _U11) + 1) * _ULP  # (0, 1]
-    u2 = np.float64(np.int64(_mix(base + (n + _U1) * _GAMMA) >> _U11)) * _ULP  # [0, 1)
+    u1 = _unit(_mix(base + n * _GAMMA)) + _ULP  # (0, 1]: (z >> 11) + 1 times 2^-53, exactly
+    u2 = _unit(_mix(base + (n + _U1) * _GAMMA))  # [0, 1)
     radius = np.sqrt(-2.0 * log_unit(u1)) * s
     sn, cs = sincos(_TWO_PI * u2)
     return radius * cs, radius * sn

@@ -40,6 +40,22 @@ def test_grid_lookup_of_nan_is_free():
     assert grid.lookup(np.array([0.0]), np.array([0.0]))[0]
 
 
+def test_grid_lookup_is_the_clipped_truncated_cell():
+    """Lookups index the cell int(clip((x - origin) / resolution, 0, last)) along each axis,
+    as numpy computes it, for points inside, on cell edges and far outside the grid."""
+    rng = np.random.default_rng(3)
+    static = np.column_stack([rng.uniform(0, 30, (40, 2)), rng.uniform(0.2, 2.0, 40)])
+    grid = OccupancyGrid(static, 0.5, 0.1)
+    edges = grid.origin[0] + np.arange(grid.shape[0] + 1) * 0.1
+    far = rng.uniform(-1e12, 1e12, 2000)  # beyond 32-bit cell indices
+    x = np.concatenate([far, rng.uniform(-5, 35, 20000), edges])
+    y = rng.uniform(-5, 35, len(x))
+    limit = np.array(grid.shape) - 1.0
+    ix = np.clip((x - grid.origin[0]) * (1.0 / 0.1), 0.0, limit[0]).astype(np.int64)
+    iy = np.clip((y - grid.origin[1]) * (1.0 / 0.1), 0.0, limit[1]).astype(np.int64)
+    assert np.array_equal(grid.lookup(x, y), grid.grid[ix, iy])
+
+
 def test_grid_ignores_padding_and_matches():
     static = np.array([[0.0, 0.0, 0.0], [3.0, 3.0, 1.0]])
     grid = OccupancyGrid(static, 0.5)

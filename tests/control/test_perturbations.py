@@ -10,7 +10,7 @@ from dcmppi.control import make_controller
 from dcmppi.control.agents.projection import NO_SUMS, project_perturbed
 from dcmppi.control.libm import cabs, log_unit, sincos
 from dcmppi.control.mppi import MPPI
-from dcmppi.control.perturbations import BLOCK, draw_box, draw_normals
+from dcmppi.control.perturbations import _ULP, BLOCK, _mix, _unit, draw_box, draw_normals
 from dcmppi.control.threads import parts
 
 
@@ -20,6 +20,34 @@ def _sincos_all(x):
     for j in range(x.size):
         s[j], c[j] = sincos(x[j])
     return s, c
+
+
+@numba.njit
+def _units(z):
+    out = np.empty(z.size)
+    for j in range(z.size):
+        out[j] = _unit(z[j])
+    return out
+
+
+@numba.njit
+def _words(base, n):
+    out = np.empty(n, dtype=np.uint64)
+    for j in range(n):
+        out[j] = _mix(base + np.uint64(j) * np.uint64(0x9E3779B97F4A7C15))
+    return out
+
+
+def test_unit_floats_are_the_top_53_bits_exactly():
+    """_unit builds (z >> 11) 2^-53 from bits (AVX2 has no vector conversion of 64-bit integers);
+    it must equal numpy's exact conversion for every word, at the ends of [0, 1) too."""
+    ends = [0, 1, 2**11 - 1, 2**11, 2**12, 2**12 + 2**11, 2**63, 2**64 - 2**11, 2**64 - 1]
+    z = np.concatenate([np.array(ends, dtype=np.uint64), _words(np.uint64(12345), 100_000)])
+    exact = (z >> np.uint64(11)).astype(np.float64) * _ULP
+    got = _units(z)
+    assert np.array_equal(got, exact)
+    assert got[len(ends) - 1] == 1.0 - _ULP and got[0] == 0.0
+    assert np.array_equal(got + _ULP, ((z >> np.uint64(11)) + np.uint64(1)).astype(float) * _ULP)
 
 
 @numba.njit

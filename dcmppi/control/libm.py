@@ -30,6 +30,7 @@ _C5, _C6 = 2.08757232129817482790e-09, -1.13596475577881948265e-11
 _TWO_OVER_PI = 6.36619772367581382433e-01
 _PIO2_1, _PIO2_1T = 1.57079632673412561417e00, 6.07710050650619224932e-11  # pi / 2, two parts
 _ROUND = 6755399441055744.0  # 1.5 2^52: (y + _ROUND) - _ROUND rounds y to an integer
+_I1, _I2 = np.int32(1), np.int32(2)
 # e_log.c
 _LG1, _LG2 = 6.666666666666735130e-01, 3.999999999940941908e-01
 _LG3, _LG4 = 2.857142874366239149e-01, 2.222219843214978396e-01
@@ -41,16 +42,17 @@ _SQRT2 = 1.4142135623730951
 @numba.njit(inline="always")
 def sincos(x):
     """(sin x, cos x) for |x| < 1e5: x = k pi / 2 + r with |r| <= pi / 4, the kernels on r,
-    and the quadrant k mod 4 picked by arithmetic (no branch)."""
+    and the quadrant k mod 4 picked by arithmetic (no branch; k as a 32-bit integer, which
+    |k| < 1e5 fits)."""
     k = (x * _TWO_OVER_PI + _ROUND) - _ROUND
     r = (x - k * _PIO2_1) - k * _PIO2_1T
     z = r * r
     s = r + r * z * (_S1 + z * (_S2 + z * (_S3 + z * (_S4 + z * (_S5 + z * _S6)))))
     c = 1.0 - 0.5 * z + z * z * (_C1 + z * (_C2 + z * (_C3 + z * (_C4 + z * (_C5 + z * _C6)))))
-    q = np.int64(k)
-    odd = np.float64(q & 1)
-    sin_sign = np.float64(1 - 2 * ((q >> 1) & 1))
-    cos_sign = np.float64(1 - 2 * (((q + 1) >> 1) & 1))
+    q = np.int32(k)  # 32-bit: AVX2 converts those four at a time, 64-bit ones one by one
+    odd = np.float64(q & _I1)
+    sin_sign = np.float64(_I1 - _I2 * ((q >> _I1) & _I1))
+    cos_sign = np.float64(_I1 - _I2 * (((q + _I1) >> _I1) & _I1))
     return sin_sign * (s * (1.0 - odd) + c * odd), cos_sign * (c * (1.0 - odd) + s * odd)
 
 

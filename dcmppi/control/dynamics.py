@@ -19,6 +19,9 @@ import numpy as np
 from .libm import sincos
 
 _SINC_SERIES_MAX = 0.1  # |a| below which sinc(a) uses its series (error < 1e-13)
+# the series' last coefficients as products: a division per state-step costs more than the rest
+# of the series (docs/performance.md, eighth round)
+_INV_5040, _INV_40320, _INV_362880 = 1.0 / 5040.0, 1.0 / 40320.0, 1.0 / 362880.0
 
 
 def wrap_angle(theta):
@@ -45,7 +48,7 @@ def sinc(a):
 def _sinc_series(a):
     """sinc's Taylor series to a^6 (one pass, for arrays or scalars)."""
     a2 = a * a
-    return 1.0 + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 - a2 / 5040.0))
+    return 1.0 + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 - a2 * _INV_5040))
 
 
 def dubins_step(state, omega, v, dt):
@@ -122,8 +125,8 @@ def _sin_cos_small(a):
     """(sin a, cos a) for |a| < _SINC_SERIES_MAX by their Taylor series (to a^9 and a^8: the
     first terms left out are below 3e-17 relative)."""
     a2 = a * a
-    sin = a * (1.0 + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 + a2 * (-1.0 / 5040.0 + a2 / 362880.0))))
-    cos = 1.0 + a2 * (-0.5 + a2 * (1.0 / 24.0 + a2 * (-1.0 / 720.0 + a2 / 40320.0)))
+    sin = a * (1.0 + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 + a2 * (-_INV_5040 + a2 * _INV_362880))))
+    cos = 1.0 + a2 * (-0.5 + a2 * (1.0 / 24.0 + a2 * (-1.0 / 720.0 + a2 * _INV_40320)))
     return sin, cos
 
 

@@ -10,7 +10,7 @@ from dcmppi.control import make_controller
 from dcmppi.control.agents.projection import NO_SUMS, project_perturbed
 from dcmppi.control.libm import cabs, log_unit, sincos
 from dcmppi.control.mppi import MPPI
-from dcmppi.control.perturbations import _ULP, BLOCK, _mix, _unit, draw_box, draw_normals
+from dcmppi.control.perturbations import _GAMMA, _ULP, BLOCK, _mix, _unit, draw_box, draw_normals
 from dcmppi.control.threads import parts
 
 
@@ -34,7 +34,7 @@ def _units(z):
 def _words(base, n):
     out = np.empty(n, dtype=np.uint64)
     for j in range(n):
-        out[j] = _mix(base + np.uint64(j) * np.uint64(0x9E3779B97F4A7C15))
+        out[j] = _mix(base + np.uint64(j) * _GAMMA)
     return out
 
 

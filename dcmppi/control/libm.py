@@ -1,15 +1,16 @@
-"""sin, cos and log for compiled loops that vectorise: fdlibm's kernels without branches; and
-numpy's complex absolute value.
+"""sin, cos and log for compiled loops that vectorise: fdlibm's kernels without branches,
+Cephes' float32 ones; and numpy's complex absolute value.
 
 numba calls libm's sin, cos and log one element at a time, so a loop that takes them does not
 vectorise. These are fdlibm's polynomials (k_sin.c, k_cos.c, e_log.c; errors below 1 ulp of
 their reduced arguments) behind branch-free argument reductions: within 2 ulp of libm for
 |x| < 1e5 (sincos) and on (0, 1] (log_unit), the same values on every machine (no fused
-multiply-add: numba compiles without fast-math). The rollouts (dcmppi.control.dynamics) and the
-perturbation draws (dcmppi.control.perturbations) use them. `cabs` is numpy's np.abs of a
-complex number as its SIMD loop computes it, whose multiply-add is fused: it calls LLVM's fma
-(`fma`) explicitly, so it too gives the same values on every machine (the physics' clearances,
-tasks/physics.py, through `cabs_or_nan`, its branch-free form).
+multiply-add: numba compiles without fast-math). The rollouts (dcmppi.control.dynamics) use
+them. `log_unit32` and `sincos_turn32` are Cephes' float32 polynomials for the perturbation
+draws (dcmppi.control.perturbations), which AVX2 evaluates eight at a time. `cabs` is numpy's
+np.abs of a complex number as its SIMD loop computes it, whose multiply-add is fused: it calls
+LLVM's fma (`fma`) explicitly, so it too gives the same values on every machine (the physics'
+clearances, tasks/physics.py, through `cabs_or_nan`, its branch-free form).
 """
 
 import math
@@ -58,22 +59,25 @@ def sincos(x):
 
 @intrinsic
 def _bits(typingctx, x):
-    """The IEEE bits of a float64, as an int64."""
+    """The IEEE bits of a float64 as an int64, of a float32 as an int32."""
+    width = x.bitwidth
 
     def codegen(context, builder, signature, args):
-        return builder.bitcast(args[0], ir.IntType(64))
+        return builder.bitcast(args[0], ir.IntType(width))
 
-    return types.int64(types.float64), codegen
+    return getattr(types, f"int{width}")(x), codegen
 
 
 @intrinsic
 def from_bits(typingctx, bits):
-    """The float64 of IEEE bits given as an int64."""
+    """The float64 of IEEE bits given as an int64, the float32 of an int32."""
+    width = bits.bitwidth
+    float_type = ir.DoubleType() if width == 64 else ir.FloatType()
 
     def codegen(context, builder, signature, args):
-        return builder.bitcast(args[0], ir.DoubleType())
+        return builder.bitcast(args[0], float_type)
 
-    return types.float64(types.int64), codegen
+    return getattr(types, f"float{width}")(bits), codegen
 
 
 @numba.njit(inline="always")
@@ -93,6 +97,57 @@ def log_unit(u):
     t2 = z * (_LG1 + w * (_LG3 + w * (_LG5 + w * _LG7)))
     hfsq = 0.5 * f * f
     return k * _LN2_HI - ((hfsq - (s * (hfsq + (t2 + t1)) + k * _LN2_LO)) - f)
+
+
+# Cephes' logf, sinf and cosf (float32; errors near 1 ulp of float32)
+
+_F = np.float32
+_LF0, _LF1, _LF2 = _F(7.0376836292e-2), _F(-1.1514610310e-1), _F(1.1676998740e-1)
+_LF3, _LF4, _LF5 = _F(-1.2420140846e-1), _F(1.4249322787e-1), _F(-1.6668057665e-1)
+_LF6, _LF7, _LF8 = _F(2.0000714765e-1), _F(-2.4999993993e-1), _F(3.3333331174e-1)
+_LN2F_LO, _LN2F_HI = _F(-2.12194440e-4), _F(0.693359375)  # ln 2 = _HI + _LO, _HI exact
+_SF1, _SF2, _SF3 = _F(-1.6666654611e-1), _F(8.3321608736e-3), _F(-1.9515295891e-4)
+_CF1, _CF2, _CF3 = _F(4.166664568298827e-2), _F(-1.388731625493765e-3), _F(2.443315711809948e-5)
+_HALF_PI_F, _SQRT2_F = _F(math.pi / 2), _F(math.sqrt(2.0))
+_ROUND_F = _F(12582912.0)  # 1.5 2^23: (y + _ROUND_F) - _ROUND_F rounds y to an integer
+_ONE_F, _HALF_F, _FOUR_F = _F(1.0), _F(0.5), _F(4.0)
+_MANTISSA_F, _ONE_F_BITS = np.int32(0x007FFFFF), np.int32(0x3F800000)
+_I23, _I127 = np.int32(23), np.int32(127)
+
+
+@numba.njit(inline="always")
+def log_unit32(u):
+    """ln u for a normal float32 u in (0, 1], in float32: u = 2^e m with m in [sqrt(2) / 2,
+    sqrt(2)), then Cephes' logf series in f = m - 1 (no division)."""
+    b = _bits(u)
+    m = from_bits(np.int32((b & _MANTISSA_F) | _ONE_F_BITS))  # in [1, 2)
+    big = _F(m > _SQRT2_F)
+    m = m * (_ONE_F - _HALF_F * big)
+    e = _F(np.int32(b >> _I23) - _I127) + big
+    f = m - _ONE_F
+    z = f * f
+    p = ((((_LF0 * f + _LF1) * f + _LF2) * f + _LF3) * f + _LF4) * f + _LF5
+    y = f * z * (((p * f + _LF6) * f + _LF7) * f + _LF8)
+    y = y + _LN2F_LO * e - _HALF_F * z
+    return (f + y) + _LN2F_HI * e
+
+
+@numba.njit(inline="always")
+def sincos_turn32(u):
+    """(sin 2 pi u, cos 2 pi u) for a float32 u in [0, 1], in float32: 4 u = k + t with k an
+    integer and |t| <= 1 / 2, both exact, Cephes' sinf and cosf kernels on t pi / 2, and the
+    quadrant k mod 4 picked by arithmetic as in sincos."""
+    t4 = _FOUR_F * u
+    k = (t4 + _ROUND_F) - _ROUND_F
+    x = (t4 - k) * _HALF_PI_F
+    z = x * x
+    s = ((_SF3 * z + _SF2) * z + _SF1) * z * x + x
+    c = ((_CF3 * z + _CF2) * z + _CF1) * z * z - _HALF_F * z + _ONE_F
+    q = np.int32(k)
+    odd = _F(q & _I1)
+    sin_sign = _F(_I1 - _I2 * ((q >> _I1) & _I1))
+    cos_sign = _F(_I1 - _I2 * (((q + _I1) >> _I1) & _I1))
+    return sin_sign * (s * (_ONE_F - odd) + c * odd), cos_sign * (c * (_ONE_F - odd) + s * odd)
 
 
 @intrinsic

@@ -8,15 +8,17 @@ its Generator at each reset), the step's draw number and the block's index, so t
   mix64(base + n GAMMA) (SplitMix64's output mix of a Weyl sequence; Steele, Lea and Flood
   2014), with no state carried from one word to the next, so the loops vectorise;
 - each two words give two normals by Box and Muller's transform, sqrt(-2 ln u1) (cos, sin)(2 pi
-  u2), with u1 in (0, 1] and u2 in [0, 1) of 53 bits and the branch-free libm of
-  dcmppi.control.libm: no rejection, no table.
+  u2), with u1 in (0, 1] and u2 in [0, 1) of 53 bits rounded to float32, and the transform in
+  float32 with the branch-free libm of dcmppi.control.libm: no rejection, no table. The words'
+  64-bit integer work goes four to an AVX2 register, the transform's float32 work eight, so
+  they are two loops over a block's row; the normals are then widened and scaled in float64.
 Integer arithmetic and rounded float operations only: the same values on every machine.
 """
 
 import numba
 import numpy as np
 
-from .libm import from_bits, log_unit, sincos
+from .libm import from_bits, log_unit32, sincos_turn32
 from .threads import ALIGN, parts, run
 
 BLOCK = ALIGN  # samples per stream: a part of a step split over threads is whole blocks
@@ -27,7 +29,7 @@ _U1, _U11, _U12, _U27, _U30, _U31 = (np.uint64(b) for b in (1, 11, 12, 27, 30, 3
 _ULP = 1.0 / 9007199254740992.0  # 2^-53
 _ONE_BITS = np.int64(0x3FF0000000000000)  # of 1.0
 _ULP_BITS = np.int64(0x3CA0000000000000)  # of 2^-53
-_TWO_PI = 6.283185307179586
+_MINUS_TWO = np.float32(-2.0)
 
 
 @numba.njit(inline="always")
@@ -49,31 +51,29 @@ def _unit(z):
 
 
 @numba.njit(inline="always")
-def _pair(base, n, s):
-    """Two normals times s from words n and n + 1 of the stream base (Box-Muller)."""
-    u1 = _unit(_mix(base + n * _GAMMA)) + _ULP  # (0, 1]: (z >> 11) + 1 times 2^-53, exactly
-    u2 = _unit(_mix(base + (n + _U1) * _GAMMA))  # [0, 1)
-    radius = np.sqrt(-2.0 * log_unit(u1)) * s
-    sn, cs = sincos(_TWO_PI * u2)
-    return radius * cs, radius * sn
-
-
-@numba.njit(inline="always")
-def _block_row(base, first, o, s):
+def _block_row(base, first, o, s, work):
     """o[:] = the k = len(o) <= BLOCK normals times s of one row of a block from words first ..
-    of the stream base."""
+    of the stream base: samples j and h + j (h = BLOCK / 2 in a whole block) share the pair of
+    words first + 2 j, first + 2 j + 1. work: _work()'s rows."""
+    w1, w2 = work
     k = len(o)
-    if k == BLOCK:  # samples j and BLOCK / 2 + j share a pair; the loop vectorises
+    h = (k + 1) // 2
+    for j in range(h):  # the pairs' uniforms
+        n = first + np.uint64(2 * j)
+        w1[j] = np.float32(_unit(_mix(base + n * _GAMMA)) + _ULP)  # (0, 1], rounded
+        w2[j] = np.float32(_unit(_mix(base + (n + _U1) * _GAMMA)))  # [0, 1], rounded
+    for j in range(h):  # Box-Muller
+        radius = np.sqrt(_MINUS_TWO * log_unit32(w1[j]))
+        sn, cs = sincos_turn32(w2[j])
+        w1[j], w2[j] = radius * cs, radius * sn
+    if k == BLOCK:  # the loop vectorises
         for j in range(BLOCK // 2):
-            z = _pair(base, first + np.uint64(2 * j), s)
-            o[j], o[BLOCK // 2 + j] = z
-    else:  # a last, shorter block: samples j and h + j share a pair
-        h = (k + 1) // 2
+            o[j], o[BLOCK // 2 + j] = np.float64(w1[j]) * s, np.float64(w2[j]) * s
+    else:
         for j in range(h):
-            z = _pair(base, first + np.uint64(2 * j), s)
-            o[j] = z[0]
+            o[j] = np.float64(w1[j]) * s
             if h + j < k:
-                o[h + j] = z[1]
+                o[h + j] = np.float64(w2[j]) * s
 
 
 @numba.njit(inline="always")
@@ -88,13 +88,19 @@ def _block_bases(key, draw, j0, j1):
 
 
 @numba.njit(inline="always")
-def _draw_row(bases, i, c, out, scale, add, j0, j1):
+def _work():
+    """_block_row's two float32 work rows."""
+    return np.empty(BLOCK // 2, np.float32), np.empty(BLOCK // 2, np.float32)
+
+
+@numba.njit(inline="always")
+def _draw_row(bases, i, c, out, scale, add, j0, j1, work):
     """out[i, c, j0:j1] = the normals of row i, control c of the blocks of `bases` times scale[c]
     (+ add[c, j0:j1] when add is (nu, K)); returns that slice."""
     first = np.uint64((i * out.shape[1] + c) * BLOCK + 1)
     for b in range(len(bases)):
         b0 = j0 + b * BLOCK
-        _block_row(bases[b], first, out[i, c, b0 : min(b0 + BLOCK, j1)], scale[c])
+        _block_row(bases[b], first, out[i, c, b0 : min(b0 + BLOCK, j1)], scale[c], work)
     o = out[i, c, j0:j1]
     if add.shape[0]:
         a = add[c, j0:j1]
@@ -107,10 +113,10 @@ def _draw_row(bases, i, c, out, scale, add, j0, j1):
 def _draw(key, draw, out, scale, add, j0, j1):
     """out[:, :, j0:j1] = z * scale[c] (+ add[c, j] when add is (nu, K)) for standard normals z
     of the blocks j0 // BLOCK .. of draw `draw` under `key`, row by row. out: (R, nu, K)."""
-    bases = _block_bases(key, draw, j0, j1)
+    bases, work = _block_bases(key, draw, j0, j1), _work()
     for i in range(out.shape[0]):
         for c in range(out.shape[1]):
-            _draw_row(bases, i, c, out, scale, add, j0, j1)
+            _draw_row(bases, i, c, out, scale, add, j0, j1, work)
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -120,10 +126,10 @@ def _draw_box(key, draw, scale, add, U0, lower, upper, u, e, sums, products, j0,
     the horizon sums of e added to it step by step (projection._clip_box's values; eps itself
     is not kept), when products is (nu, K) U0[i, c] e[i, c] likewise (dcmppi.control.sums'
     importance sums)."""
-    bases = _block_bases(key, draw, j0, j1)
+    bases, work = _block_bases(key, draw, j0, j1), _work()
     for i in range(u.shape[0]):
         for c in range(u.shape[1]):
-            o, r = _draw_row(bases, i, c, u, scale, add, j0, j1), e[i, c, j0:j1]
+            o, r = _draw_row(bases, i, c, u, scale, add, j0, j1, work), e[i, c, j0:j1]
             u0, lo, hi = U0[i, c], lower[c], upper[c]
             for j in range(len(o)):
                 v = min(max(u0 + o[j], lo), hi)

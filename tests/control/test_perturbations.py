@@ -8,9 +8,18 @@ from scipy import stats
 
 from dcmppi.control import make_controller
 from dcmppi.control.agents.projection import NO_SUMS, project_perturbed
-from dcmppi.control.libm import cabs, log_unit, sincos
+from dcmppi.control.libm import cabs, log_unit, log_unit32, sincos, sincos_turn32
 from dcmppi.control.mppi import MPPI
-from dcmppi.control.perturbations import _GAMMA, _ULP, BLOCK, _mix, _unit, draw_box, draw_normals
+from dcmppi.control.perturbations import (
+    _GAMMA,
+    _ULP,
+    BLOCK,
+    _block_bases,
+    _mix,
+    _unit,
+    draw_box,
+    draw_normals,
+)
 from dcmppi.control.threads import parts
 
 
@@ -77,6 +86,55 @@ def test_log_unit_is_within_one_ulp_of_numpy():
     got, want = _log_all(u), np.log(u)
     assert got[-3:].tolist() == want[-3:].tolist()  # 0 at 1, exact powers of two
     assert (np.abs(got - want) <= np.spacing(np.abs(want))).all()
+
+
+@numba.njit
+def _float32_all(u):
+    ln, s, c = np.empty_like(u), np.empty_like(u), np.empty_like(u)
+    for j in range(u.size):
+        ln[j] = log_unit32(u[j])
+        s[j], c[j] = sincos_turn32(u[j])
+    return ln, s, c
+
+
+def test_float32_log_and_turns_are_within_one_float32_ulp():
+    """log_unit32 and sincos_turn32 (the draws' float32 kernels) against float64 numpy: within
+    1 ulp of float32 (of the result for ln, of 1 for the sine and cosine of 2 pi u)."""
+    powers = [1.0, 0.5, 0.25, 0.125, 2.0**-24, 2.0**-126]
+    ends = [0.75, np.nextafter(np.float32(1), 0), *powers]
+    u = np.concatenate([np.random.default_rng(4).uniform(0, 1, 500_000), ends]).astype(np.float32)
+    u = u[u > 0]
+    ln, s, c = _float32_all(u)
+    assert ln.dtype == s.dtype == np.float32
+    exact = u.astype(float)
+    want = np.log(exact)
+    assert (np.abs(ln - want) <= np.spacing(np.abs(want).astype(np.float32))).all()
+    last = slice(len(u) - len(powers), len(u))  # e ln 2, rounded once
+    assert ln[last].tolist() == want[last].astype(np.float32).tolist()
+    one = float(np.spacing(np.float32(1)))
+    assert np.abs(s - np.sin(2 * np.pi * exact)).max() <= one
+    assert np.abs(c - np.cos(2 * np.pi * exact)).max() <= one
+    _, s, c = _float32_all(np.float32([0.0, 0.25, 0.5, 0.75, 1.0]))  # every quadrant's signs
+    assert s.tolist() == [0, 1, 0, -1, 0] and c.tolist() == [1, 0, -1, 0, 1]
+
+
+def test_draws_are_box_muller_of_the_streams_words():
+    """Each normal is float64 Box-Muller of its pair of words to float32's precision: sample j
+    and BLOCK / 2 + j of a row of a block share words first + 2 j and first + 2 j + 1."""
+    key, draw, shape = 21, 3, (3, 2, 2 * BLOCK + 10)
+    z = draw_normals(key, draw, shape, np.ones(2))
+    bases = _block_bases(np.uint64(key), np.uint64(draw), 0, shape[2])
+    for i, c, b in np.ndindex(3, 2, len(bases)):
+        first = (i * 2 + c) * BLOCK + 1
+        k = min(BLOCK, shape[2] - b * BLOCK)
+        h = (k + 1) // 2
+        with np.errstate(over="ignore"):  # uint64 arithmetic wraps, as in the kernels
+            words = _words(bases[b] + np.uint64(first) * _GAMMA, 2 * h)
+        u1, u2 = _units(words[0::2]) + _ULP, _units(words[1::2])
+        r = np.sqrt(-2 * np.log(u1))
+        want = np.concatenate([r * np.cos(2 * np.pi * u2), r * np.sin(2 * np.pi * u2)])[:k]
+        got = z[i, c, b * BLOCK : b * BLOCK + k]
+        assert np.abs(got - want).max() < 1e-6 * (1 + np.abs(want).max())
 
 
 @numba.njit

@@ -9,8 +9,9 @@ on the calling thread, in its order. The compiled kernels release the GIL (numba
 numpy's loops do.
 """
 
-import concurrent.futures
 import functools
+import queue
+import threading
 
 from numba import types
 from numba.extending import overload
@@ -27,24 +28,53 @@ def parts(k, threads):
     return tuple((j, min(j + size, k)) for j in range(0, k, size))
 
 
-@functools.cache
-def _pool(workers):
-    """One pool per number of workers, shared by the controllers (its threads idle between
-    steps)."""
-    return concurrent.futures.ThreadPoolExecutor(workers, thread_name_prefix="dcmppi")
+# The workers: daemon threads that take parts from one queue. A bare queue.SimpleQueue (a C
+# lock) hands a part over about four times faster than a ThreadPoolExecutor, with its Future and
+# Condition per part (docs/performance.md).
+_JOBS = queue.SimpleQueue()
+_WORKERS = []
+_STARTING = threading.Lock()
+
+
+def _work():
+    while True:
+        fn, j0, j1, done, i = _JOBS.get()
+        try:
+            done.put((i, fn(j0, j1), None))
+        except BaseException as error:  # handed to the caller, which raises it
+            done.put((i, None, error))
+
+
+def _workers(n):
+    """At least n workers, started once (they idle between steps)."""
+    with _STARTING:
+        while len(_WORKERS) < n:
+            worker = threading.Thread(target=_work, name=f"dcmppi-{len(_WORKERS)}", daemon=True)
+            worker.start()
+            _WORKERS.append(worker)
 
 
 def run(fn, ranges):
-    """[fn(j0, j1) for (j0, j1) in ranges]: the first on this thread, the others on a pool's
-    threads at the same time."""
+    """[fn(j0, j1) for (j0, j1) in ranges]: the first on this thread, the others on the workers
+    at the same time. Returns when every part is done (none is still writing), raising the
+    first part's error, else the first that a worker reports."""
     if len(ranges) == 1:
         return [fn(*ranges[0])]
-    futures = [_pool(len(ranges) - 1).submit(fn, *r) for r in ranges[1:]]
+    _workers(len(ranges) - 1)
+    done = queue.SimpleQueue()
+    for i, (j0, j1) in enumerate(ranges[1:], 1):
+        _JOBS.put((fn, j0, j1, done, i))
+    results, error = [None] * len(ranges), None
     try:
-        first = fn(*ranges[0])
-    finally:
-        concurrent.futures.wait(futures)  # no part is still writing when this returns or raises
-    return [first, *(f.result() for f in futures)]
+        results[0] = fn(*ranges[0])
+    except BaseException as raised:
+        error = raised
+    for _ in ranges[1:]:
+        i, value, failed = done.get()
+        results[i], error = value, error or failed
+    if error is not None:
+        raise error
+    return results
 
 
 def in_cols(row, cols):

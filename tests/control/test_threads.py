@@ -1,6 +1,8 @@
 """threads=: the samples' work split over threads gives the plans of one thread, bit for bit."""
 
 import dataclasses
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -8,7 +10,7 @@ from threadpoolctl import threadpool_limits
 
 import dcmppi
 from dcmppi.control.dynamics import arc_columns, dubins_step
-from dcmppi.control.threads import ALIGN, parts
+from dcmppi.control.threads import ALIGN, parts, run
 
 GOAL = np.array([12.0, 1.0])
 STATIC = np.array([[4.0, 0.5, 0.6], [7.0, -1.0, 0.8], [9.0, 2.0, 0.5]])
@@ -109,3 +111,33 @@ def test_parts_cover_the_samples_at_aligned_boundaries():
 def test_threads_must_be_a_positive_integer(bad):
     with pytest.raises(ValueError, match="^threads must be"):
         dcmppi.make_controller("mppi", threads=bad)
+
+
+def test_run_gives_each_part_in_order_and_uses_other_threads():
+    ranges = parts(4 * ALIGN, 4)
+    together = threading.Barrier(4, timeout=10)  # passed only if the four parts run at once
+    seen = []
+
+    def part(j0, j1):
+        seen.append(threading.get_ident())
+        together.wait()
+        return j0, j1
+
+    assert run(part, ranges) == list(ranges)
+    assert len(set(seen)) == 4 and threading.get_ident() in seen
+
+
+@pytest.mark.parametrize("failing", [0, 1])
+def test_run_raises_a_parts_error_after_every_part_is_done(failing):
+    finished = []
+
+    def part(j0, j1):
+        if j0 == failing * ALIGN:
+            raise ValueError(f"part {j0}")
+        time.sleep(0.02)
+        finished.append(j0)
+
+    with pytest.raises(ValueError, match=f"part {failing * ALIGN}"):
+        run(part, parts(3 * ALIGN, 3))
+    assert len(finished) == 2  # the others were not left writing
+    assert run(lambda j0, j1: j1 - j0, parts(2 * ALIGN, 2)) == [ALIGN, ALIGN]  # workers go on

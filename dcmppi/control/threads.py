@@ -10,6 +10,7 @@ numpy's loops do.
 """
 
 import functools
+import os
 import queue
 import threading
 
@@ -36,6 +37,16 @@ _WORKERS = []
 _STARTING = threading.Lock()
 
 
+def _forget_workers():
+    """In a forked child: the parent's workers do not exist there; start afresh."""
+    global _JOBS, _STARTING
+    _JOBS, _STARTING = queue.SimpleQueue(), threading.Lock()
+    _WORKERS.clear()
+
+
+os.register_at_fork(after_in_child=_forget_workers)
+
+
 def _work():
     while True:
         fn, j0, j1, done, i = _JOBS.get()
@@ -45,7 +56,7 @@ def _work():
             done.put((i, None, error))
 
 
-def _workers(n):
+def _start_workers(n):
     """At least n workers, started once (they idle between steps)."""
     with _STARTING:
         while len(_WORKERS) < n:
@@ -60,7 +71,7 @@ def run(fn, ranges):
     first part's error, else the first that a worker reports."""
     if len(ranges) == 1:
         return [fn(*ranges[0])]
-    _workers(len(ranges) - 1)
+    _start_workers(len(ranges) - 1)
     done = queue.SimpleQueue()
     for i, (j0, j1) in enumerate(ranges[1:], 1):
         _JOBS.put((fn, j0, j1, done, i))
@@ -71,7 +82,9 @@ def run(fn, ranges):
         error = raised
     for _ in ranges[1:]:
         i, value, failed = done.get()
-        results[i], error = value, error or failed
+        results[i] = value
+        if error is None:
+            error = failed
     if error is not None:
         raise error
     return results

@@ -1,6 +1,8 @@
 """threads=: the samples' work split over threads gives the plans of one thread, bit for bit."""
 
 import dataclasses
+import multiprocessing
+import os
 import threading
 import time
 
@@ -141,3 +143,18 @@ def test_run_raises_a_parts_error_after_every_part_is_done(failing):
         run(part, parts(3 * ALIGN, 3))
     assert len(finished) == 2  # the others were not left writing
     assert run(lambda j0, j1: j1 - j0, parts(2 * ALIGN, 2)) == [ALIGN, ALIGN]  # workers go on
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
+def test_run_works_in_a_child_forked_after_the_workers_started():
+    assert run(lambda j0, j1: j0, parts(2 * ALIGN, 2)) == [0, ALIGN]  # the parent's workers
+    context = multiprocessing.get_context("fork")
+    out = context.Queue()
+    child = context.Process(target=lambda: out.put(run(lambda j0, j1: j1, parts(2 * ALIGN, 2))))
+    child.start()
+    child.join(timeout=30)
+    alive = child.is_alive()
+    if alive:
+        child.kill()
+    assert not alive and child.exitcode == 0  # the parent's workers would leave it waiting
+    assert out.get(timeout=5) == [ALIGN, 2 * ALIGN]

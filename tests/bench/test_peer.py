@@ -136,12 +136,15 @@ def test_against_times_our_threads_in_the_same_run(capsys):
     t = result["threaded"]
     assert t["threads"] == 2 and t["same_path"] and t["median_ms"] > 0
     assert t["speedup"] == pytest.approx(result["ours"]["median_ms"] / t["median_ms"])
+    gains = result["machine_gains"]
+    assert gains["threads"] == 2 and gains["compute"] > 0 and gains["stream"] > 0
     assert timing.main([*argv, "--threads", "2"]) == 0
     out = capsys.readouterr().out
     assert "mppi (dcmppi, threads=2)" in out and "ours / ours with threads=2 = " in out
     assert "the same path: yes" in out
+    assert "this machine, 2 threads at once: a compute-bound kernel " in out
     assert timing.main([*argv, "--json"]) == 0
-    assert "threaded" not in json.loads(capsys.readouterr().out)
+    assert not {"threaded", "machine_gains"} & json.loads(capsys.readouterr().out).keys()
 
 
 @pytest.mark.parametrize(

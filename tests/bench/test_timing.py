@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from dcmppi.bench import provenance, timing
-from dcmppi.bench.timing import cases, episodes, loop, profile, scaling
+from dcmppi.bench.timing import cases, cores, episodes, loop, profile, scaling
 from dcmppi.bench.timing.worlds import dense_forest, world
 from dcmppi.control import make_controller
 from dcmppi.control.timer import NO_TIMER
@@ -395,3 +395,20 @@ def test_a_row_the_bench_would_refuse_is_refused_before_any_episode(tmp_path, ca
     assert timing.main(["--profile", str(path), "--environments", "1"]) == 2
     out, err = capsys.readouterr()
     assert out == "" and len(err.strip().splitlines()) == 1 and "K must be" in err
+
+
+def test_the_machines_gains_run_their_kernels_on_every_thread(monkeypatch):
+    """cores: the kernels do the work they name (nothing a compiler could drop), and the gain
+    counts every thread's call."""
+    x = np.arange(5.0)
+    y = np.empty(5)
+    assert cores.stream(x, y, 3) == 1.0 and np.array_equal(y, 0.5 * x + 1.0)
+    start = 1.0 + 1e-3 * np.arange(8)
+    after = start
+    for _ in range(3):
+        after = after * 0.9999999 + 1e-7
+    assert cores.compute(0) == start.sum() and cores.compute(3) == pytest.approx(after.sum())
+    calls = []
+    monkeypatch.setattr(cores, "REPEATS", 2)
+    gains = cores._gain(lambda *a: calls.append(a), [(1,), (2,), (3,)])
+    assert gains > 0 and sorted(calls) == [(1,)] * 5 + [(2,)] * 2 + [(3,)] * 2

@@ -13,6 +13,7 @@ from dcmppi.control import defaults
 from dcmppi.control._malloc import tune_malloc
 
 from . import cases, episodes, scaling
+from .cores import machine_gains
 from .fingerprint import fingerprint, print_fingerprint
 from .loop import BLOCK, ClosedLoop, time_cases
 from .profile import print_profile, profile
@@ -209,6 +210,8 @@ def against(args):
         threaded = ClosedLoop("mppi", "forest", args.steps, threads=args.threads, **size)
     with threadpool_limits(1):  # BLAS on one thread: the plans are the same for any `threads`
         result = peer.compare(ours, args.steps, args.block, threaded)
+    if threaded:  # what the machine's cores give any split, beside what ours gained
+        result["machine_gains"] = machine_gains(args.threads)
     if args.json:
         print(json.dumps(result, indent=2))
         return 0
@@ -238,6 +241,11 @@ def against(args):
             f"ours / ours with threads={t['threads']} = {t['speedup']:.2f}"
             + (f" (target >= {target})" if target else "")
             + f"; the same path: {'yes' if t['same_path'] else 'NO'}"
+        )
+        g = result["machine_gains"]
+        print(
+            f"this machine, {g['threads']} threads at once: a compute-bound kernel "
+            f"{g['compute']:.2f} x, a stream beyond L2 {g['stream']:.2f} x (the bounds of a split)"
         )
     print(f"same problem: {result['same_problem']}")
     return 0

@@ -31,6 +31,7 @@ from .world_base import BEHAVIOR_CONSTANT, GOAL_TOLERANCE, World
 OBSTACLE_HALF_HEIGHT = 0.5  # [m]
 PARKED = -1000.0  # [m] x, y of unused static slots (also disabled and hidden)
 _HIDDEN_GROUP = 3  # geom group that MuJoCo's renderer hides by default
+_NO_CONTACT = int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
 ROBOT_PREFIX = "robot/"  # names of the attached robot file's elements get this prefix
 ROBOT_FILE_RADIUS = 0.5  # [m] hull radius the robot files are drawn at
 
@@ -140,7 +141,9 @@ class Physics(dm_mujoco.Physics):
 
     Only obstacles that the robot could reach within the coming control step take part in
     MuJoCo's collision detection (their conaffinity is switched on at the start of each
-    `step`); the rest are skipped, which keeps a step cheap with hundreds of obstacles.
+    `step`); the rest are skipped, which keeps a step cheap with hundreds of obstacles. With
+    none of them near, collision detection is switched off for the step (MuJoCo's contact
+    flag): it could find no contact, and it costs a third of a substep.
     """
 
     @classmethod
@@ -201,6 +204,7 @@ class Physics(dm_mujoco.Physics):
         self._qpos, self._qvel, self._ctrl = d.qpos, d.qvel, d.ctrl
         self._qfrc_applied = d.qfrc_applied
         self._opt = m.opt
+        self._flags = int(m.opt.disableflags)  # the model's own: contacts on
         self._geom_conaffinity, self._body_conaffinity = m.geom_conaffinity, m.body_conaffinity
         self._gain = m.actuator_gainprm[:, 0].copy()  # kv of the planar and turn actuators
         self._mocap_xy = d.mocap_pos[self._mocap, :2]
@@ -265,6 +269,7 @@ class Physics(dm_mujoco.Physics):
         _set_cylinders(m, self._moving_ids, moving[:, 3])
         m.geom_conaffinity[self._moving_ids] = 0
         m.body_conaffinity[self._moving_bodies] = 0
+        self._opt.disableflags = self._flags
         self._near = None
         self._walking = len(moving) > 0 and world.behavior != BEHAVIOR_CONSTANT
         obstacle_speed = 0.0
@@ -394,8 +399,9 @@ class Physics(dm_mujoco.Physics):
             self._warnings_before[:] = before
 
     def _activate_near(self, duration):
-        """Enables collisions with the obstacles the robot could touch within `duration`
-        (writes the model only when that set changed)."""
+        """Enables collisions with the obstacles the robot could touch within `duration`, and
+        collision detection only when there is one (writes the model only when that set
+        changed)."""
         reach = 0.5 + self._speed_bound * duration
         static = self._static_clearance < reach
         moving = self._moving_clearance < reach if len(self._moving_ids) else static[:0]
@@ -406,6 +412,8 @@ class Physics(dm_mujoco.Physics):
             if len(self._moving_ids):
                 self._geom_conaffinity[self._moving_ids] = moving
                 self._body_conaffinity[self._moving_bodies] = moving
+            touch = static.any() or moving.any()
+            self._opt.disableflags = self._flags if touch else self._flags | _NO_CONTACT
 
     def _record_contact(self):
         d = self._d

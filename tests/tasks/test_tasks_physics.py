@@ -1,5 +1,6 @@
 """The MuJoCo plant: collisions, clearance, robot dynamics, moving obstacles, world generators."""
 
+import mujoco
 import numpy as np
 import pytest
 from fused_cabs import needs_fused_cabs
@@ -373,3 +374,34 @@ def test_an_invalid_physics_state_raises_dm_control_s_physics_error():
     env.physics.data.qvel[0] = np.nan
     with env.physics.suppress_physics_errors():  # dm_control's switch: a log line instead
         env.physics.step(10)
+
+
+def _episode(task, params, omega):
+    """A constant turn rate to the end: the poses, the first contact and, per step, whether
+    MuJoCo's collision detection was off and whether any obstacle could be touched."""
+    env = tasks.load(task, params)
+    ts, rows = env.reset(), []
+    m = env.physics.model
+    while not ts.last():
+        ts = env.step([omega])
+        off = bool(m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT)
+        rows.append((ts.observation["robot_pose"].tobytes(), off, bool(m.geom_conaffinity.any())))
+    contact = env.physics.first_contact
+    return rows, contact and {**contact, "robot_xy": contact["robot_xy"].tobytes()}
+
+
+@pytest.mark.parametrize(
+    "task, params",
+    [("blocked", {}), ("crossing", {"distance": 20.0, "obstacle_speed": 1.0})],
+)
+def test_collision_detection_is_off_only_with_nothing_near(task, params, monkeypatch):
+    """A step with no obstacle in reach runs without MuJoCo's collision detection; the episode
+    is that of detection always on, to the bit, its first contact too."""
+    rows, contact = _episode(task, params, 0.0)
+    monkeypatch.setattr(physics, "_NO_CONTACT", 0)
+    always, always_contact = _episode(task, params, 0.0)
+    assert contact is not None and contact == always_contact
+    assert [r[0] for r in rows] == [r[0] for r in always]
+    assert [(off, near) for _, off, near in rows].count((True, False)) > 10
+    assert all(off != near for _, off, near in rows)  # off exactly when nothing is near
+    assert not any(off for _, off, _ in always)

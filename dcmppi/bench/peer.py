@@ -197,6 +197,19 @@ class PeerLoop:
         return float(np.median(times)), float(np.percentile(times, 95))
 
 
+def block_ratios(num, den, block, skip=3):
+    """Quartiles (25, 50 and 75 %) of median(num's step times) / median(den's) over the blocks
+    of `block` consecutive steps that the loops num and den ran interleaved, the first `skip`
+    steps left out as the summaries leave them: how far the machine's drift moves the ratio."""
+    ratios = [
+        np.median(num.times[max(s, skip) : s + block])
+        / np.median(den.times[max(s, skip) : s + block])
+        for s in range(0, min(len(num.times), len(den.times)), block)
+        if s + block > skip
+    ]
+    return [float(q) for q in np.percentile(ratios, [25, 50, 75])]
+
+
 def compare(ours, steps, block=1, threaded=None):
     """Time our closed loop `ours` (timing.loop.ClosedLoop, not yet stepped) beside pytorch_mppi's.
 
@@ -208,7 +221,8 @@ def compare(ours, steps, block=1, threaded=None):
     (median_ms, p95_ms), both ratios, the first actions and first plans' costs under the shared
     cost, and `same_problem`: a short message that both solve the same problem; with `threaded`
     also "threaded" (threads, median_ms, p95_ms, speedup: ours' median over its, same_path:
-    whether it drove the path of `ours` exactly, as equal plans do).
+    whether it drove the path of `ours` exactly, as equal plans do). The "..._blocks" entries
+    are `block_ratios` of the same ratios.
     """
     torch, _ = require()
     threads = torch.get_num_threads()
@@ -239,7 +253,8 @@ def compare(ours, steps, block=1, threaded=None):
         mp, pp = threaded.summary()
         extra["threaded"] = {
             "threads": threaded.ctrl.threads, "median_ms": mp, "p95_ms": pp,
-            "speedup": mo / mp, "same_path": bool(np.array_equal(paths[0], paths[2])),
+            "speedup": mo / mp, "speedup_blocks": block_ratios(ours, threaded, block),
+            "same_path": bool(np.array_equal(paths[0], paths[2])),
         }  # fmt: skip
     return {
         "settings": {
@@ -260,6 +275,7 @@ def compare(ours, steps, block=1, threaded=None):
         "theirs": {"median_ms": mt, "p95_ms": pt},
         "ours_over_theirs": mo / mt,
         "theirs_over_ours": mt / mo,
+        "theirs_over_ours_blocks": block_ratios(theirs, ours, block),
         "first_actions": first,
         "first_plan_costs": costs[:2],
         "same_problem": (

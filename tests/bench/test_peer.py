@@ -136,6 +136,7 @@ def test_against_times_our_threads_in_the_same_run(capsys):
     t = result["threaded"]
     assert t["threads"] == 2 and t["same_path"] and t["median_ms"] > 0
     assert t["speedup"] == pytest.approx(result["ours"]["median_ms"] / t["median_ms"])
+    assert sorted(t["speedup_blocks"]) == t["speedup_blocks"] and len(t["speedup_blocks"]) == 3
     gains = result["machine_gains"]
     assert gains["threads"] == 2 and gains["compute"] > 0 and gains["stream"] > 0
     assert timing.main([*argv, "--threads", "2"]) == 0
@@ -143,6 +144,7 @@ def test_against_times_our_threads_in_the_same_run(capsys):
     assert "mppi (dcmppi, threads=2)" in out and "ours / ours with threads=2 = " in out
     assert "the same path: yes" in out
     assert "this machine, 2 threads at once: a compute-bound kernel " in out
+    assert "between the quartiles" in out and ", per block " in out
     assert timing.main([*argv, "--json"]) == 0
     assert not {"threaded", "machine_gains"} & json.loads(capsys.readouterr().out).keys()
 
@@ -173,3 +175,21 @@ def test_a_bad_size_is_one_line_naming_it(argv, message, capsys):
     assert exit.value.code == 2
     out = capsys.readouterr()
     assert out.out == "" and out.err == f"dcmppi timing: error: {message} (see --help)\n"
+
+
+def test_block_ratios_are_the_quartiles_of_each_blocks_medians():
+    """Per block of interleaved steps, median over median; the warm-up steps left out."""
+
+    class Loop:
+        def __init__(self, times):
+            self.times = times
+
+    slow = Loop([9.0, 9.0, 9.0, 2.0, 2.0, 2.0, 4.0, 4.0, 4.0, 6.0, 6.0, 6.0])
+    fast = Loop([1.0] * 12)
+    # blocks of 3: the first is warm-up only; then ratios 2, 4, 6
+    assert peer.block_ratios(slow, fast, 3) == [3.0, 4.0, 5.0]
+    # blocks of 4: steps 3 (the first after warm-up), 4-7, 8-11: 2, 3 and 6
+    assert peer.block_ratios(slow, fast, 4) == [2.5, 3.0, 4.5]
+    assert peer.block_ratios(fast, slow, 3) == pytest.approx(
+        [5 / 24, 1 / 4, 3 / 8]
+    )  # of 1/6, 1/4, 1/2

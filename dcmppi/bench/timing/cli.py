@@ -230,17 +230,21 @@ def against(args):
     for name, row in rows:
         print(f"{name:<24} {row['median_ms']:9.3f} {row['p95_ms']:7.3f}")
     target = AGAINST_TARGETS.get((s["K"], s["N"]))
+    q = result["theirs_over_ours_blocks"]
     print(
         f"pytorch_mppi / ours = {result['theirs_over_ours']:.1f}"
         + (f" (target >= {target})" if target else "")
-        + f", ours / pytorch_mppi = {result['ours_over_theirs']:.3f}"
+        + f", ours / pytorch_mppi = {result['ours_over_theirs']:.3f}; per block of {args.block} "
+        f"steps {q[0]:.1f}-{q[2]:.1f} between the quartiles"
     )
     if threaded:
         target = THREADS_TARGETS.get((s["K"], s["N"])) if t["threads"] == 2 else None
+        q = t["speedup_blocks"]
         print(
             f"ours / ours with threads={t['threads']} = {t['speedup']:.2f}"
             + (f" (target >= {target})" if target else "")
-            + f"; the same path: {'yes' if t['same_path'] else 'NO'}"
+            + f", per block {q[0]:.2f}-{q[2]:.2f}; the same path: "
+            + ("yes" if t["same_path"] else "NO")
         )
         g = result["machine_gains"]
         print(

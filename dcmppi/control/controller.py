@@ -300,14 +300,14 @@ class Controller:
 
     def _draws_in_pass(self):
         """Whether perturbed_rollouts may draw this step's perturbations in the pass that
-        bounds them: per-step draws into a box, with sample() and controls() as defined here (a
-        subclass's or an instance's own are called instead)."""
+        bounds them: per-step draws into a box (and a disc of two controls), with sample() and
+        controls() as defined here (a subclass's or an instance's own are called instead)."""
         own = type(self).sample is Controller.sample and type(self).controls is Controller.controls
         return (
             own
             and not {"sample", "controls"} & vars(self).keys()
             and self.perturbation != "constant"
-            and self.agent.norm_axes is None
+            and (self.agent.norm_axes is None or len(self.agent.norm_axes) == 2)
         )
 
     def _normals(self, shape, scale):
@@ -330,9 +330,9 @@ class Controller:
 
         x0: (3,), or (3, S) with starts = S > 1: every sample rolls out from each start.
         eps: (N, nu, K) perturbations, or None: this step's (Controller.sample); per-step draws
-          into a box (dubins, unicycle) are then bounded row by row as they are drawn, with
-          the values of sample() then controls() (perturbations.draw_box), unless either is
-          replaced (a subclass's or an instance's: they are called, on one thread).
+          into a box (and the holonomic base's disc) are then bounded row by row as they are
+          drawn, with the values of sample() then controls() (perturbations.draw_box), unless
+          either is replaced (a subclass's or an instance's: they are called, on one thread).
         Returns e (N, nu, K) the perturbations that remain, states (3, N + 1, S K), J (S K,),
         the importance term (K,); with sums=True also the horizon sums of e (nu, K), with
         moving=True J's moving-obstacle term (S K,) (None: 0).
@@ -353,8 +353,9 @@ class Controller:
                 in_pass_importance = own and "importance" not in vars(self)
                 products = np.zeros((self.nu, K) if in_pass_importance else (0, 0))
                 box = agent.lower, agent.upper
+                disc = None if agent.norm_axes is None else (*agent.norm_axes, agent.norm_limit)
                 project = functools.partial(
-                    draw_box, self._key, *self._per_step(), U0, *box, products=products
+                    draw_box, self._key, *self._per_step(), U0, *box, products=products, disc=disc
                 )
             else:
                 project = functools.partial(project_columns, agent, U0, eps)

@@ -119,6 +119,19 @@ def _draw(key, draw, out, scale, add, j0, j1):
             _draw_row(bases, i, c, out, scale, add, j0, j1, work)
 
 
+@numba.njit(inline="always")
+def _add_row(r, u0, c, sums, products, j0, j1):
+    """sums[c, j0:j1] += r and products[c, j0:j1] += u0 r, each where it is (nu, K)."""
+    if sums.shape[0]:
+        total = sums[c, j0:j1]
+        for j in range(len(r)):
+            total[j] += r[j]
+    if products.shape[0]:
+        total = products[c, j0:j1]
+        for j in range(len(r)):
+            total[j] += u0 * r[j]
+
+
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _draw_box(key, draw, scale, add, U0, lower, upper, u, e, sums, products, j0, j1):
     """_draw's eps into the box, row by row while the row is in the cache: u = min(max(U0 + eps,
@@ -135,14 +148,37 @@ def _draw_box(key, draw, scale, add, U0, lower, upper, u, e, sums, products, j0,
                 v = min(max(u0 + o[j], lo), hi)
                 o[j] = v
                 r[j] = v - u0
-            if sums.shape[0]:
-                total = sums[c, j0:j1]
+            _add_row(r, u0, c, sums, products, j0, j1)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _draw_box_disc(key, draw, scale, add, U0, lower, upper, p, q, limit, u, e, sums, products,
+                   j0, j1):  # fmt: skip
+    """_draw_box with controls p and q then scaled back onto |(u_p, u_q)| <= limit, a row at a
+    time (projection._clip_box_disc's values)."""
+    bases, work = _block_bases(key, draw, j0, j1), _work()
+    scales = np.empty(j1 - j0)
+    for i in range(u.shape[0]):
+        for c in range(u.shape[1]):
+            o = _draw_row(bases, i, c, u, scale, add, j0, j1, work)
+            u0, lo, hi = U0[i, c], lower[c], upper[c]
+            for j in range(len(o)):
+                o[j] = min(max(u0 + o[j], lo), hi)
+        up, uq = u[i, p, j0:j1], u[i, q, j0:j1]
+        for j in range(len(scales)):
+            norm = np.sqrt(up[j] * up[j] + uq[j] * uq[j])
+            scales[j] = limit / max(norm, 1e-300) if norm > limit else 1.0
+        for c in range(u.shape[1]):
+            o, r, u0 = u[i, c, j0:j1], e[i, c, j0:j1], U0[i, c]
+            if c == p or c == q:
                 for j in range(len(o)):
-                    total[j] += r[j]
-            if products.shape[0]:
-                total = products[c, j0:j1]
+                    v = o[j] * scales[j]
+                    o[j] = v
+                    r[j] = v - u0
+            else:
                 for j in range(len(o)):
-                    total[j] += u0 * r[j]
+                    r[j] = o[j] - u0
+            _add_row(r, u0, c, sums, products, j0, j1)
 
 
 _NO_ADD = np.zeros((0, 0))
@@ -169,18 +205,26 @@ def draw_normals(key, draw, shape, scale, add=None, threads=1):
     return out
 
 
-def draw_box(key, draw, scale, add, U0, lower, upper, u, e, sums, cols=None, products=_NO_ADD):
+def draw_box(
+    key, draw, scale, add, U0, lower, upper, u, e, sums, cols=None, products=_NO_ADD, disc=None
+):
     """The controls of the draw `draw` of the stream `key` (draw_normals' eps = z * scale[:, None]
     (+ add)) in their box, into the samples cols = (j0, j1) of u, e (N, nu, K) (None: all; j0 a
     multiple of BLOCK, as threads.parts gives): u = min(max(U0 + eps, lower), upper), e = u - U0,
     with the horizon sums of e added to sums (nu, K) (a (0, 0) array: none); the values of
     draw_normals then agents.projection's box, in one pass. products (nu, K), when given, gets
     the importance term's sums over the steps, sum_i U0[i, c] e[i, c] (dcmppi.control.sums'
-    values).
+    values). disc = (p, q, limit): controls p and q then scaled back onto |(u_p, u_q)| <= limit
+    (the holonomic base's bound), as agents.projection does.
 
     scale, lower, upper: (nu,); add: (nu, K) or None; U0: (N, nu).
     """
     j0, j1 = cols or (0, u.shape[2])
     add = _NO_ADD if add is None else np.ascontiguousarray(add, dtype=float)
-    _draw_box(np.uint64(key), np.uint64(draw), np.asarray(scale, dtype=float), add, U0, lower,
-              upper, u, e, sums, products, j0, j1)  # fmt: skip
+    key, draw, scale = np.uint64(key), np.uint64(draw), np.asarray(scale, dtype=float)
+    if disc is None:
+        _draw_box(key, draw, scale, add, U0, lower, upper, u, e, sums, products, j0, j1)
+    else:
+        p, q, limit = disc
+        _draw_box_disc(key, draw, scale, add, U0, lower, upper, p, q, float(limit), u, e, sums,
+                       products, j0, j1)  # fmt: skip

@@ -20,6 +20,7 @@ from dcmppi.control.perturbations import (
     draw_box,
     draw_normals,
 )
+from dcmppi.control.sums import _accumulate
 from dcmppi.control.threads import parts
 
 
@@ -223,18 +224,46 @@ def test_draws_into_a_box_are_the_draws_then_the_projection(k, mixed):
     assert np.array_equal(u, want[0]) and np.array_equal(e, want[1])
 
 
+@pytest.mark.parametrize("k", [3, 64, 130, 500])
+@pytest.mark.parametrize("mixed", [False, True])
+def test_draws_into_a_box_and_disc_are_the_draws_then_the_projection(k, mixed):
+    """draw_box with the holonomic base's disc, whole or in threads' parts: the values of
+    draw_normals then Agent.project's box and disc, the horizon and importance sums included."""
+    agent = make_controller("mppi", agent="holonomic").agent  # vx, vy in a disc; a turn rate
+    disc = (*agent.norm_axes, agent.norm_limit)
+    rng = np.random.default_rng(5)
+    U0 = rng.uniform(-0.7, 0.7, (6, 3)) * agent.upper
+    scale, add = np.array([1.2, 0.9, 0.3]), (rng.normal(size=(3, k)) if mixed else None)
+    eps = draw_normals(8, 4, (6, 3, k), scale, add)
+    want = project_perturbed(agent, U0, eps, sums=True)
+    np.testing.assert_array_equal(want[0], agent.project(U0[:, :, None] + eps, axis=1))
+    speed = np.hypot(want[0][:, 0], want[0][:, 1])
+    assert 0.1 < (speed > agent.norm_limit * (1 - 1e-12)).mean() < 0.9  # some on the disc
+    products = np.zeros((3, k))
+    _accumulate(U0, want[1], products)
+    for cols in (None, *parts(k, 2)):
+        u, e, sums, prods = (np.zeros((6, 3, k)), np.zeros((6, 3, k)), np.zeros((3, k)),
+                             np.zeros((3, k)))  # fmt: skip
+        draw_box(8, 4, scale, add, U0, agent.lower, agent.upper, u, e, sums, cols, prods, disc)
+        j = slice(*(cols or (0, k)))
+        for got, ref in zip((u, e, sums, prods), (*want, products), strict=True):
+            assert np.array_equal(got[..., j], ref[..., j])
+
+
+@pytest.mark.parametrize("agent", ["unicycle", "holonomic"])
 @pytest.mark.parametrize("perturbation", ["time_varying", "mixed"])
-def test_a_step_drawn_in_its_pass_equals_sample_then_controls(perturbation):
+def test_a_step_drawn_in_its_pass_equals_sample_then_controls(agent, perturbation):
     """perturbed_rollouts without eps (draws made in the projection's pass) equals it with the
     step's sample(): the same draw numbers, values and outputs, on one thread and two."""
     for threads in (1, 2):
         runs = []
         for given in (False, True):
             ctrl = make_controller(
-                "mppi", agent="unicycle", K=200, N=12, seed=4, perturbation=perturbation,
+                "mppi", agent=agent, K=200, N=12, seed=4, perturbation=perturbation,
                 threads=threads,
             )  # fmt: skip
             ctrl.act(np.zeros(3), np.array([5.0, 1.0]))
+            assert ctrl._draws_in_pass()
             eps = ctrl.sample() if given else None
             runs.append(ctrl.perturbed_rollouts(np.zeros(3), eps, sums=True) + (ctrl._draws,))
         for a, b in zip(*runs, strict=True):

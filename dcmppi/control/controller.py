@@ -326,7 +326,8 @@ class Controller:
         """A step's per-sample work, its samples split over `threads` threads: the controls
         project(U + eps) (Controller.controls), their rollouts from x0 and costs under this
         step's objective (Controller.evaluate), and the importance term (Controller.importance;
-        with per-step draws into a box its sums over the steps come from the draws' pass).
+        with per-step draws into a box (or a disc) its sums over the steps come from the draws'
+        pass).
 
         x0: (3,), or (3, S) with starts = S > 1: every sample rolls out from each start.
         eps: (N, nu, K) perturbations, or None: this step's (Controller.sample); per-step draws

@@ -5,8 +5,8 @@ NO_TIMER, does nothing; `dcmppi timing --profile` sets a StepTimer, which adds u
 and calls of each label. Labels: "sample", "controls", "evaluate", "rollout", "objective",
 "importance", "update", "features", "DBSCAN", "cluster updates", "prediction"; with threads > 1
 "threads" (controls, rollout, objective and importance together, over the threads). Per-step
-draws into a box are made in the "controls" pass (Controller.perturbed_rollouts), so "sample"
-times only the others.
+draws into a box (and a disc) are made in the "controls" pass (Controller.perturbed_rollouts),
+so "sample" times only the others.
 """
 
 import time

@@ -302,12 +302,17 @@ class Controller:
         """Whether perturbed_rollouts may draw this step's perturbations in the pass that
         bounds them: per-step draws into a box (and a disc of two controls), with sample() and
         controls() as defined here (a subclass's or an instance's own are called instead)."""
-        own = type(self).sample is Controller.sample and type(self).controls is Controller.controls
         return (
-            own
-            and not {"sample", "controls"} & vars(self).keys()
+            self._own("sample")
+            and self._own("controls")
             and self.perturbation != "constant"
             and (self.agent.norm_axes is None or len(self.agent.norm_axes) == 2)
+        )
+
+    def _own(self, method):
+        """Whether `method` is Controller's, not a subclass's or an instance's own."""
+        return getattr(type(self), method) is getattr(Controller, method) and (
+            method not in vars(self)
         )
 
     def _normals(self, shape, scale):
@@ -340,38 +345,39 @@ class Controller:
         """
         agent, U0 = self.agent, self.U
         in_pass = eps is None and self._draws_in_pass()
-        in_pass_importance = False
         if eps is None and not in_pass:
             with self.timer("sample"):
                 eps = self.sample()
         K = self.K if in_pass else eps.shape[2]
         ranges = parts(K, self.threads)
-        if in_pass or len(ranges) > 1:
+        # the pass that bounds the controls is ours (not a replaced controls()); then it sums the
+        # importance term over the steps too, unless importance() is replaced
+        ours = in_pass or len(ranges) > 1 or self._own("controls")
+        fused = ours and self._own("importance")
+        products = np.zeros((self.nu, K)) if fused else NO_SUMS
+        if ours:
             u, e = np.empty((self.N, self.nu, K)), np.empty((self.N, self.nu, K))
             total = np.zeros((self.nu, K)) if sums else NO_SUMS
-            if in_pass:  # with the importance term's sums over the steps unless it is replaced
-                own = type(self).importance is Controller.importance
-                in_pass_importance = own and "importance" not in vars(self)
-                products = np.zeros((self.nu, K) if in_pass_importance else (0, 0))
+            if in_pass:
                 box = agent.lower, agent.upper
                 disc = None if agent.norm_axes is None else (*agent.norm_axes, agent.norm_limit)
                 project = functools.partial(
                     draw_box, self._key, *self._per_step(), U0, *box, products=products, disc=disc
                 )
             else:
-                project = functools.partial(project_columns, agent, U0, eps)
+                project = functools.partial(project_columns, agent, U0, eps, products=products)
         if len(ranges) == 1:  # the whole batch on this thread
             with self.timer("controls"):
-                if in_pass:
+                if ours:
                     project(u, e, total)
-                else:  # through controls(), a subclass's own too
+                else:  # a subclass's or an instance's own controls()
                     u, e, *rest = self.controls(U0, eps, sums)
                     total = rest[0] if sums else NO_SUMS
             states, J, term = self.evaluate(x0, u, starts, moving=True)
             with self.timer("importance"):
                 importance = (
                     importance_of(products, self._importance_weight)
-                    if in_pass_importance
+                    if fused
                     else self.importance(U0, e)
                 )
             return e, states, J, importance, *([total] if sums else []), *([term] if moving else [])
@@ -392,7 +398,7 @@ class Controller:
                     term[c0:c1] = t
             importance[j0:j1] = (
                 importance_of(products[:, j0:j1], self._importance_weight)
-                if in_pass_importance
+                if fused
                 else self.importance(U0, e[:, :, j0:j1])
             )
 

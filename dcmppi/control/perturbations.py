@@ -18,6 +18,7 @@ Integer arithmetic and rounded float operations only: the same values on every m
 import numba
 import numpy as np
 
+from .agents.projection import add_row
 from .libm import from_bits, log_unit32, sincos_turn32
 from .threads import ALIGN, parts, run
 
@@ -119,19 +120,6 @@ def _draw(key, draw, out, scale, add, j0, j1):
             _draw_row(bases, i, c, out, scale, add, j0, j1, work)
 
 
-@numba.njit(inline="always")
-def _add_row(r, u0, c, sums, products, j0, j1):
-    """sums[c, j0:j1] += r and products[c, j0:j1] += u0 r, each where it is (nu, K)."""
-    if sums.shape[0]:
-        total = sums[c, j0:j1]
-        for j in range(len(r)):
-            total[j] += r[j]
-    if products.shape[0]:
-        total = products[c, j0:j1]
-        for j in range(len(r)):
-            total[j] += u0 * r[j]
-
-
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _draw_box(key, draw, scale, add, U0, lower, upper, u, e, sums, products, j0, j1):
     """_draw's eps into the box, row by row while the row is in the cache: u = min(max(U0 + eps,
@@ -148,7 +136,7 @@ def _draw_box(key, draw, scale, add, U0, lower, upper, u, e, sums, products, j0,
                 v = min(max(u0 + o[j], lo), hi)
                 o[j] = v
                 r[j] = v - u0
-            _add_row(r, u0, c, sums, products, j0, j1)
+            add_row(r, u0, c, sums, products, (j0, j1))
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -178,7 +166,7 @@ def _draw_box_disc(key, draw, scale, add, U0, lower, upper, p, q, limit, u, e, s
             else:
                 for j in range(len(o)):
                     r[j] = o[j] - u0
-            _add_row(r, u0, c, sums, products, j0, j1)
+            add_row(r, u0, c, sums, products, (j0, j1))
 
 
 _NO_ADD = np.zeros((0, 0))

@@ -7,7 +7,7 @@ from fused_cabs import needs_fused_cabs
 from scipy import stats
 
 from dcmppi.control import make_controller
-from dcmppi.control.agents.projection import NO_SUMS, project_perturbed
+from dcmppi.control.agents.projection import NO_SUMS, project_columns, project_perturbed
 from dcmppi.control.libm import cabs, log_unit, log_unit32, sincos, sincos_turn32
 from dcmppi.control.mppi import MPPI
 from dcmppi.control.perturbations import (
@@ -319,3 +319,28 @@ def test_a_replaced_importance_is_used():
         ctrl.importance = lambda U0, eps: np.zeros(eps.shape[2])
         ctrl.act(np.zeros(3), goal)
         assert np.array_equal(ctrl.diagnostics.S, ctrl.diagnostics.J)
+
+
+@pytest.mark.parametrize("agent", ["dubins", "unicycle", "holonomic"])
+def test_the_importance_summed_in_the_bounding_pass_is_importances(agent):
+    """With one constant draw per sample, or perturbations given, the pass that bounds the
+    controls sums the importance term over the steps too: the values of importance(U0, e), on
+    one thread and two; project_columns' sums are those of dcmppi.control.sums."""
+    for threads in (1, 2):
+        ctrl = make_controller(
+            "mppi", agent=agent, K=200, N=12, seed=4, perturbation="constant", threads=threads
+        )
+        ctrl.act(np.zeros(3), np.array([5.0, 1.0]))
+        for eps in (None, 3.0 * ctrl.sample()):  # drawn in the step; three sigmas: many bounded
+            e, _, _, importance = ctrl.perturbed_rollouts(np.zeros(3), eps)
+            assert np.array_equal(importance, ctrl.importance(ctrl.U, e))
+    eps = 3.0 * ctrl.sample()
+    u, e, got, want = (
+        np.empty(eps.shape),
+        np.empty(eps.shape),
+        np.zeros((3, 200)),
+        np.zeros((3, 200)),
+    )
+    project_columns(ctrl.agent, ctrl.U, eps, u, e, NO_SUMS, None, got[: ctrl.nu])
+    _accumulate(ctrl.U, e, want[: ctrl.nu])
+    assert (e != eps).any() and np.array_equal(got, want) and got.any()

@@ -25,17 +25,20 @@ def project_perturbed(agent, U0, eps, sums=False):
     return (u, e, out) if sums else (u, e)
 
 
-def project_columns(agent, U0, eps, u, e, sums, cols=None):
+def project_columns(agent, U0, eps, u, e, sums, cols=None, products=None):
     """project_perturbed of the samples cols = (j0, j1) (None: all), written in place into
-    their columns of u, e (N, nu, K) and sums (nu, K) zeros (or NO_SUMS: none asked)."""
+    their columns of u, e (N, nu, K) and sums (nu, K) zeros (or NO_SUMS: none asked); products
+    (nu, K) zeros, when given, get the importance term's sums over the steps, sum_i U0[i, c]
+    e[i, c] (dcmppi.control.sums' values), in the same pass."""
     if eps.strides[0] == 0:  # constant: one contiguous (1, nu, K) block for every step
         eps = eps[:1]
+    products = NO_SUMS if products is None else products
     if agent.norm_axes is None:  # a box: one pass, the same values as np.clip
-        _clip_box(U0, eps, agent.lower, agent.upper, sums, u, e, cols)
+        _clip_box(U0, eps, agent.lower, agent.upper, sums, products, u, e, cols)
     elif len(agent.norm_axes) == 2:  # box and disc (holonomic): Agent.project's values
         _clip_box_disc(
-            U0, eps, agent.lower, agent.upper, *agent.norm_axes, agent.norm_limit, sums, u, e,
-            cols,
+            U0, eps, agent.lower, agent.upper, *agent.norm_axes, agent.norm_limit, sums, products,
+            u, e, cols,
         )  # fmt: skip
     else:
         j0, j1 = cols or (0, eps.shape[2])
@@ -43,19 +46,35 @@ def project_columns(agent, U0, eps, u, e, sums, cols=None):
         e[:, :, j0:j1] = u[:, :, j0:j1] - U0[:, :, None]
         if len(sums):
             sums[:, j0:j1] = horizon_sums(np.ascontiguousarray(e[:, :, j0:j1]))
+        for i in range(len(U0) if len(products) else 0):  # i in order, as the kernels
+            products[:, j0:j1] += U0[i, :, None] * e[i, :, j0:j1]
+
+
+@numba.njit(inline="always")
+def add_row(out_e, u0, c, sums, products, cols):
+    """sums[c] += out_e and products[c] += u0 out_e in columns cols, each where it is (nu, K)."""
+    if len(sums):
+        total = in_cols(sums[c], cols)
+        for j in range(len(out_e)):
+            total[j] += out_e[j]
+    if len(products):
+        total = in_cols(products[c], cols)
+        for j in range(len(out_e)):
+            total[j] += u0 * out_e[j]
 
 
 @numba.njit(cache=True, nogil=True)
-def _clip_box(U0, eps, lower, upper, sums, u, e, cols):
+def _clip_box(U0, eps, lower, upper, sums, products, u, e, cols):
     """u = min(max(U0 + eps, lower), upper) and u - U0 in columns cols of u, e (N, nu, K)
     (threads.in_cols), in one pass.
 
     U0: (N, nu); eps: (N, nu, K), or (1, nu, K): the same perturbation at every step (constant),
     read from one contiguous block; lower, upper: (nu,); sums: (nu, K) zeros that get the
-    horizon sums of u - U0 (step by step, in order), or an empty array for none.
+    horizon sums of u - U0 (step by step, in order), or an empty array for none; products
+    likewise the sums of U0[i, c] (u - U0)[i, c].
     """
     n, nu = U0.shape
-    each, add = eps.shape[0] > 1, len(sums) > 0
+    each = eps.shape[0] > 1
     for i in range(n):
         for c in range(nu):
             u0, lo, hi = U0[i, c], lower[c], upper[c]
@@ -65,21 +84,18 @@ def _clip_box(U0, eps, lower, upper, sums, u, e, cols):
                 v = min(max(u0 + row[j], lo), hi)
                 out_u[j] = v
                 out_e[j] = v - u0
-            if add:
-                total = in_cols(sums[c], cols)
-                for j in range(len(row)):
-                    total[j] += out_e[j]
+            add_row(out_e, u0, c, sums, products, cols)
 
 
 @numba.njit(cache=True, nogil=True)
-def _clip_box_disc(U0, eps, lower, upper, p, q, limit, sums, u, e, cols):
+def _clip_box_disc(U0, eps, lower, upper, p, q, limit, sums, products, u, e, cols):
     """As _clip_box, then controls p and q scaled back onto |(u_p, u_q)| <= limit; one pass,
     the scale selected without a branch (1 inside the disc) so the loop vectorises. The scales
     go through a scratch row: the loop that reads u_p and u_q writes neither (u may be any
     caller's array, so the compiler cannot tell its rows apart)."""
     n, nu = U0.shape
     k = n_cols(u.shape[2], cols)
-    each, add = eps.shape[0] > 1, len(sums) > 0
+    each = eps.shape[0] > 1
     scales = np.empty(k)
     for i in range(n):
         for c in range(nu):
@@ -101,10 +117,7 @@ def _clip_box_disc(U0, eps, lower, upper, p, q, limit, sums, u, e, cols):
             else:
                 for j in range(k):
                     out_e[j] = out_u[j] - u0
-            if add:
-                total = in_cols(sums[c], cols)
-                for j in range(k):
-                    total[j] += out_e[j]
+            add_row(out_e, u0, c, sums, products, cols)
 
 
 def bound(agent, u):

@@ -18,7 +18,7 @@ Integer arithmetic and rounded float operations only: the same values on every m
 import numba
 import numpy as np
 
-from .agents.projection import add_row
+from .agents.projection import add_row, disc_row
 from .libm import from_bits, log_unit32, sincos_turn32
 from .threads import ALIGN, parts, run
 
@@ -152,21 +152,7 @@ def _draw_box_disc(key, draw, scale, add, U0, lower, upper, p, q, limit, u, e, s
             u0, lo, hi = U0[i, c], lower[c], upper[c]
             for j in range(len(o)):
                 o[j] = min(max(u0 + o[j], lo), hi)
-        up, uq = u[i, p, j0:j1], u[i, q, j0:j1]
-        for j in range(len(scales)):
-            norm = np.sqrt(up[j] * up[j] + uq[j] * uq[j])
-            scales[j] = limit / max(norm, 1e-300) if norm > limit else 1.0
-        for c in range(u.shape[1]):
-            o, r, u0 = u[i, c, j0:j1], e[i, c, j0:j1], U0[i, c]
-            if c == p or c == q:
-                for j in range(len(o)):
-                    v = o[j] * scales[j]
-                    o[j] = v
-                    r[j] = v - u0
-            else:
-                for j in range(len(o)):
-                    r[j] = o[j] - u0
-            add_row(r, u0, c, sums, products, (j0, j1))
+        disc_row(U0, p, q, limit, sums, products, u, e, i, (j0, j1), scales)
 
 
 _NO_ADD = np.zeros((0, 0))

@@ -190,6 +190,5 @@ def test_block_ratios_are_the_quartiles_of_each_blocks_medians():
     assert peer.block_ratios(slow, fast, 3) == [3.0, 4.0, 5.0]
     # blocks of 4: steps 3 (the first after warm-up), 4-7, 8-11: 2, 3 and 6
     assert peer.block_ratios(slow, fast, 4) == [2.5, 3.0, 4.5]
-    assert peer.block_ratios(fast, slow, 3) == pytest.approx(
-        [5 / 24, 1 / 4, 3 / 8]
-    )  # of 1/6, 1/4, 1/2
+    # ratios 1/2, 1/4, 1/6: quartiles halfway between neighbours
+    assert peer.block_ratios(fast, slow, 3) == pytest.approx([5 / 24, 1 / 4, 3 / 8])

@@ -103,21 +103,29 @@ def _clip_box_disc(U0, eps, lower, upper, p, q, limit, sums, products, u, e, col
             row, out_u = in_cols(eps[i if each else 0, c], cols), in_cols(u[i, c], cols)
             for j in range(k):
                 out_u[j] = min(max(u0 + row[j], lo), hi)
-        up, uq = in_cols(u[i, p], cols), in_cols(u[i, q], cols)
-        for j in range(k):
-            norm = np.sqrt(up[j] * up[j] + uq[j] * uq[j])
-            scales[j] = limit / max(norm, 1e-300) if norm > limit else 1.0
-        for c in range(nu):
-            u0, out_u, out_e = U0[i, c], in_cols(u[i, c], cols), in_cols(e[i, c], cols)
-            if c == p or c == q:
-                for j in range(k):
-                    v = out_u[j] * scales[j]
-                    out_u[j] = v
-                    out_e[j] = v - u0
-            else:
-                for j in range(k):
-                    out_e[j] = out_u[j] - u0
-            add_row(out_e, u0, c, sums, products, cols)
+        disc_row(U0, p, q, limit, sums, products, u, e, i, cols, scales)
+
+
+@numba.njit(inline="always")
+def disc_row(U0, p, q, limit, sums, products, u, e, i, cols, scales):
+    """Row i of u (N, nu, K), already in the box: controls p and q scaled back onto |(u_p,
+    u_q)| <= limit, e = u - U0 and their sums (add_row) in columns cols; scales: a scratch row
+    of their width."""
+    up, uq = in_cols(u[i, p], cols), in_cols(u[i, q], cols)
+    for j in range(len(scales)):
+        norm = np.sqrt(up[j] * up[j] + uq[j] * uq[j])
+        scales[j] = limit / max(norm, 1e-300) if norm > limit else 1.0
+    for c in range(u.shape[1]):
+        u0, out_u, out_e = U0[i, c], in_cols(u[i, c], cols), in_cols(e[i, c], cols)
+        if c == p or c == q:
+            for j in range(len(scales)):
+                v = out_u[j] * scales[j]
+                out_u[j] = v
+                out_e[j] = v - u0
+        else:
+            for j in range(len(scales)):
+                out_e[j] = out_u[j] - u0
+        add_row(out_e, u0, c, sums, products, cols)
 
 
 def bound(agent, u):

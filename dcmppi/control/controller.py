@@ -281,8 +281,9 @@ class Controller:
         """
         shape = (self.N, self.nu, self.K)
         if self.perturbation == "constant":
-            self._raw = raw = self._normals((1, self.nu, self.K), self.sigma)[0]
-            return np.broadcast_to(raw, shape)
+            raw = self._normals((1, self.nu, self.K), self.sigma)
+            self._raw = raw[0]
+            return constant_steps(raw, self.N)
         draw, scale, add = self._per_step()
         return draw_normals(self._key, draw, shape, scale, add, self.threads)
 
@@ -452,6 +453,14 @@ def shifted(plan):
     out[:-1] = plan[1:]
     out[-1] = plan[-1]
     return out
+
+
+def constant_steps(raw, n):
+    """np.broadcast_to(raw, (n, nu, K)) of raw (1, nu, K), C-contiguous: the same read-only
+    view (a zero stride along the steps), made without numpy's general broadcasting."""
+    view = np.ndarray((n, *raw.shape[1:]), raw.dtype, raw, 0, (0, *raw.strides[1:]))
+    view.flags.writeable = False
+    return view
 
 
 def temperature_param(value):

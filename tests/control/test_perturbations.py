@@ -344,3 +344,12 @@ def test_the_importance_summed_in_the_bounding_pass_is_importances(agent):
     project_columns(ctrl.agent, ctrl.U, eps, u, e, NO_SUMS, None, got[: ctrl.nu])
     _accumulate(ctrl.U, e, want[: ctrl.nu])
     assert (e != eps).any() and np.array_equal(got, want) and got.any()
+
+
+def test_a_constant_draw_is_one_read_only_block_for_every_step():
+    ctrl = make_controller("mppi", agent="holonomic", K=100, N=7, seed=1, perturbation="constant")
+    eps = ctrl.sample()
+    assert eps.shape == (7, 3, 100) and eps.strides[0] == 0 and not eps.flags.writeable
+    assert eps.tobytes() == np.broadcast_to(ctrl._raw, (7, 3, 100)).tobytes()
+    with pytest.raises(ValueError, match="read-only"):
+        eps[0, 0, 0] = 1.0

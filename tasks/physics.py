@@ -22,7 +22,7 @@ from dm_control.mujoco.wrapper import core
 from dm_control.rl import control
 
 from dcmppi.control import defaults
-from dcmppi.control.libm import cabs, cabs_or_nan
+from dcmppi.control.libm import cabs, cabs_or_nan, nan_min
 
 from . import pedestrians
 from .arcs import DubinsObstacles
@@ -95,18 +95,6 @@ def _surface_gaps(x, y, centres, radii, out):
             out[j] = cabs(centres[j].real - x, centres[j].imag - y) - radii[j]
 
 
-@numba.njit(inline="always")
-def _nan_min(values):
-    """numpy's min of a non-empty (n,): nan when any is nan."""
-    low, unordered = np.inf, False
-    for v in values:
-        if v < low:
-            low = v
-        elif v != v:
-            unordered = True
-    return np.nan if unordered else low
-
-
 @numba.njit(cache=True, error_model="numpy")
 def _clearances(robot, solid_z, solid_r, moving, moving_r, radius):
     """The nearest obstacle surface from each robot centre, less the robot's radius (n,), and each
@@ -126,10 +114,10 @@ def _clearances(robot, solid_z, solid_r, moving, moving_r, radius):
         x, y = robot[i].real, robot[i].imag
         if count:
             _surface_gaps(x, y, solid_z, solid_r, gaps)
-            nearest[i] = _nan_min(gaps)
+            nearest[i] = nan_min(gaps)
         if movers:
             _surface_gaps(x, y, moving[i], moving_r, each)
-            low, static = _nan_min(each), nearest[i]  # np.minimum(static, low)
+            low, static = nan_min(each), nearest[i]  # np.minimum(static, low)
             nearest[i] = static if static != static or low >= static else low
         if count or movers:
             nearest[i] -= radius

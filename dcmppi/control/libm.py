@@ -10,7 +10,8 @@ them. `log_unit32` and `sincos_turn32` are Cephes' float32 polynomials for the p
 draws (dcmppi.control.perturbations), which AVX2 evaluates eight at a time. `cabs` is numpy's
 np.abs of a complex number as its SIMD loop computes it, whose multiply-add is fused: it calls
 LLVM's fma (`fma`) explicitly, so it too gives the same values on every machine (the physics'
-clearances, tasks/physics.py, through `cabs_or_nan`, its branch-free form).
+clearances, tasks/physics.py, through `cabs_or_nan`, its branch-free form). `nan_min` is
+numpy's min (nan when any value is), for the clearances and the MPPI weights' minimum cost.
 """
 
 import math
@@ -189,3 +190,15 @@ def cabs_or_nan(x, y):
     larger, smaller = (re if swap else im), (im if swap else re)
     ratio = smaller / larger  # nan where both are 0 or both inf (numba: error_model="numpy")
     return math.sqrt(fma(ratio, ratio, 1.0)) * larger
+
+
+@numba.njit(inline="always")
+def nan_min(values):
+    """numpy's min of a non-empty (n,): nan when any is nan (its order does not matter)."""
+    low, unordered = np.inf, False
+    for v in values:
+        if v < low:
+            low = v
+        elif v != v:
+            unordered = True
+    return np.nan if unordered else low

@@ -1,17 +1,45 @@
 """Baseline MPPI (paper Alg. 1) over an analytic agent model."""
 
+import numba
 import numpy as np
 
 from .controller import Controller
+from .libm import nan_min
 from .registry import register
-from .sums import sum_of_squares, weighted_rows
+from .sums import pairwise, sum_of_squares, weighted_rows
 
 
 def mppi_weights(S, lambda_):
-    """Alg. 1 weights: w_k = exp(-(S_k - rho) / lambda) / eta with rho = min S. S: (K,)."""
-    w = np.exp((S.min() - S) / lambda_)
-    w /= w.sum()
+    """Alg. 1 weights: w_k = exp(-(S_k - rho) / lambda) / eta with rho = min S. S: (K,).
+
+    The values of numpy's np.exp((S.min() - S) / lambda_) divided by its np.sum: the exponents
+    and the normalisation compiled (the sum in numpy's order, dcmppi.control.sums.pairwise),
+    the exp numpy's own."""
+    S = np.ascontiguousarray(S, dtype=float)
+    if not len(S):
+        raise ValueError("mppi_weights needs at least one cost")
+    w = _exponents(S, float(lambda_))
+    np.exp(w, out=w)
+    _normalise(w)
     return w
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _exponents(S, lambda_):
+    """(min S - S) / lambda_ (K,); min S is nan when any S is (numpy's min)."""
+    rho = nan_min(S)
+    out = np.empty(len(S))
+    for k in range(len(S)):
+        out[k] = (rho - S[k]) / lambda_
+    return out
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _normalise(w):
+    """w /= np.sum(w), in place."""
+    total = pairwise(w)
+    for k in range(len(w)):
+        w[k] = w[k] / total
 
 
 def mppi_update(U0, eps, S, lambda_):

@@ -10,7 +10,10 @@ bits from one machine to another. These loops fix the order in their source:
   thread: handing rows to a second thread costs these VMs about as long as the whole sum,
   docs/performance.md);
 - `importance`: sum_c w_c sum_i U0[i, c] e[i, c, k] with i in order, per sample k (the draws'
-  pass accumulates the same sums, dcmppi.control.perturbations.draw_box).
+  pass accumulates the same sums, dcmppi.control.perturbations.draw_box);
+- `pairwise`: numpy's own order for np.sum of a contiguous float64 array (numpy's pairwise
+  summation), so that the compiled weights (dcmppi.control.mppi) keep the values of numpy's
+  expression they replaced.
 No fused multiply-add (numba compiles without fast-math): the same values on every machine, and
 for every split of the samples over threads (tests). `halve` is the halving sum itself (the
 temperature search's sums, dcmppi.control.temperature).
@@ -18,6 +21,8 @@ temperature search's sums, dcmppi.control.temperature).
 
 import numba
 import numpy as np
+
+PAIRWISE_BLOCK = 128  # numpy's PW_BLOCKSIZE
 
 
 @numba.njit(inline="always")
@@ -74,6 +79,60 @@ def weighted_rows(U0, eps, w):
         out,
     )
     return out.reshape(n, nu)
+
+
+@numba.njit(cache=True)
+def pairwise(p):
+    """np.sum(p) of a contiguous float64 (n,) in numpy's order (pairwise_sum in numpy's
+    _core/src/umath/loops_utils.h.src): a run of n <= PAIRWISE_BLOCK terms is summed by
+    `_block`; a longer one is the sum of its two halves, the first n // 2 rounded down to a
+    multiple of 8 long. The halves are walked here with a stack, left before right."""
+    runs = np.empty((_STACK, 3), dtype=np.int64)  # start, length, 1: add the last two sums
+    sums = np.empty(_STACK)
+    runs[0, 0], runs[0, 1], runs[0, 2] = 0, len(p), 0
+    top, count = 1, 0
+    while top:
+        top -= 1
+        lo, n, join = runs[top, 0], runs[top, 1], runs[top, 2]
+        if join:
+            count -= 1
+            sums[count - 1] = sums[count - 1] + sums[count]
+        elif n <= PAIRWISE_BLOCK:
+            sums[count] = _block(p, lo, n)
+            count += 1
+        else:
+            half = n // 2
+            half -= half % 8
+            runs[top, 2] = 1  # after both halves
+            runs[top + 1, 0], runs[top + 1, 1], runs[top + 1, 2] = lo + half, n - half, 0
+            runs[top + 2, 0], runs[top + 2, 1], runs[top + 2, 2] = lo, half, 0
+            top += 3
+    return sums[0]
+
+
+_STACK = 200  # over twice the halvings of any array that fits in memory
+
+
+@numba.njit(inline="always")
+def _block(p, lo, n):
+    """numpy's sum of p[lo:lo + n], n <= PAIRWISE_BLOCK: fewer than 8 terms added in order to
+    0.0; else eight running sums of every eighth term, joined as ((r0 + r1) + (r2 + r3)) +
+    ((r4 + r5) + (r6 + r7)), then the terms left over in order."""
+    if n < 8:
+        total = 0.0
+        for i in range(lo, lo + n):
+            total += p[i]
+        return total
+    r0, r1, r2, r3 = p[lo], p[lo + 1], p[lo + 2], p[lo + 3]
+    r4, r5, r6, r7 = p[lo + 4], p[lo + 5], p[lo + 6], p[lo + 7]
+    end = lo + n - n % 8
+    for i in range(lo + 8, end, 8):
+        r0, r1, r2, r3 = r0 + p[i], r1 + p[i + 1], r2 + p[i + 2], r3 + p[i + 3]
+        r4, r5, r6, r7 = r4 + p[i + 4], r5 + p[i + 5], r6 + p[i + 6], r7 + p[i + 7]
+    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    for i in range(end, lo + n):
+        total += p[i]
+    return total
 
 
 @numba.njit(cache=True)

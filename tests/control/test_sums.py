@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from dcmppi.control.mppi import effective_sample_size, mppi_update, mppi_weights
-from dcmppi.control.sums import importance, weighted_rows
+from dcmppi.control.sums import importance, pairwise, weighted_rows
 from dcmppi.control.tube import tvlqr_gains
 
 
@@ -68,6 +68,52 @@ def test_importance_sums_the_steps_in_order():
     assert importance(U0, e[:, :, 64:200], weight).tobytes() == want[64:200].tobytes()  # a view
     with pytest.raises(ValueError, match="importance needs U0"):
         importance(U0, e, weight[:1])
+
+
+def numpys_order(p):
+    """numpy's pairwise_sum in Python floats: runs of up to 128 terms by eight running sums
+    (fewer than 8 terms in order), longer ones as two halves, the first a multiple of 8."""
+    n = len(p)
+    if n < 8:
+        total = 0.0
+        for v in p:
+            total += float(v)
+        return total
+    if n <= 128:
+        r = [float(v) for v in p[:8]]
+        end = n - n % 8
+        for i in range(8, end, 8):
+            r = [r[j] + float(p[i + j]) for j in range(8)]
+        total = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+        for v in p[end:]:
+            total += float(v)
+        return total
+    half = n // 2 - (n // 2) % 8
+    return numpys_order(p[:half]) + numpys_order(p[half:])
+
+
+@pytest.mark.parametrize("n", [0, 1, 7, 8, 9, 127, 128, 129, 136, 255, 500, 517, 2048, 4099])
+def test_pairwise_sums_in_numpys_order(n):
+    rng = np.random.default_rng(n)
+    p = rng.exponential(1.0, n) * 10.0 ** rng.uniform(-12, 0, n)  # magnitudes that show the order
+    assert pairwise(p) == numpys_order(p)
+    assert pairwise(p) == p.sum()  # numpy's own, which mppi_weights keeps
+    if n >= 2048:
+        assert pairwise(p) != sum(p.tolist())  # the order in which the terms are added shows
+
+
+def test_weights_are_numpys_expression_bit_for_bit():
+    rng = np.random.default_rng(5)
+    for k in (1, 7, 500, 2048):
+        S = rng.exponential(30.0, k) + 1e3
+        S[:: max(1, k // 5)] = S.min()  # ties at the minimum
+        for lam in (0.01, 1.0, 300.0):
+            want = np.exp((S.min() - S) / lam)
+            want /= want.sum()
+            assert mppi_weights(S, lam).tobytes() == want.tobytes()
+    assert np.isnan(mppi_weights(np.array([1.0, np.nan, 2.0]), 1.0)).all()  # numpy's min: nan
+    with pytest.raises(ValueError, match="at least one cost"):
+        mppi_weights(np.zeros(0), 1.0)
 
 
 def test_lqr_gains_of_several_controls_equal_the_linear_algebra():

@@ -408,6 +408,11 @@ def test_the_machines_gains_run_their_kernels_on_every_thread(monkeypatch):
     for _ in range(3):
         after = after * 0.9999999 + 1e-7
     assert cores.compute(0) == start.sum() and cores.compute(3) == pytest.approx(after.sum())
+    one = 1.0
+    for _ in range(3):
+        one = one * 0.9999999 + 1e-7
+    assert cores.vector(0) == cores.VECTOR_SIZE
+    assert cores.vector(3) == pytest.approx(cores.VECTOR_SIZE * one, rel=1e-12)
     calls = []
     monkeypatch.setattr(cores, "REPEATS", 2)
     gains = cores._gain(lambda *a: calls.append(a), [(1,), (2,), (3,)])

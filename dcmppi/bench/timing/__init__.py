@@ -25,7 +25,7 @@ them alike.
 
 `--against pytorch_mppi [--K K] [--N N]` times our mppi beside pytorch_mppi on the forest at that
 size (dcmppi.bench.peer), with `--threads T` also ours on T threads and what T threads at once
-gain on this machine in a compute-bound and a streaming kernel (`cores`); `--scaling` the
+gain on this machine in a scalar, a vector and a streaming kernel (`cores`); `--scaling` the
 controllers as K, N, the cylinders, the moving obstacles and P grow one at a time (`scaling`);
 `--profile EXPERIMENT` where an experiment's bench episodes spend their time, end to end
 (`episodes`).

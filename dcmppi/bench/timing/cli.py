@@ -248,8 +248,9 @@ def against(args):
         )
         g = result["machine_gains"]
         print(
-            f"this machine, {g['threads']} threads at once: a compute-bound kernel "
-            f"{g['compute']:.2f} x, a stream beyond L2 {g['stream']:.2f} x (the bounds of a split)"
+            f"this machine, {g['threads']} threads at once (the bounds of a split): scalar "
+            f"arithmetic {g['compute']:.2f} x, vector arithmetic in L1 {g['vector']:.2f} x, a "
+            f"stream beyond L2 {g['stream']:.2f} x"
         )
     print(f"same problem: {result['same_problem']}")
     return 0

@@ -1,10 +1,14 @@
 """What threads can gain on this machine: one kernel on T threads at once against one thread.
 
-Two kernels bound a split over samples (dcmppi.control.threads) from above: one that only
-computes, in registers, and one that streams arrays larger than a core's L2 cache, as a
-controller's step streams its controls and states at K = 2048, N = 100. On a machine whose cores
-share their L3 cache and memory bandwidth the second gains less; a step's gain from `threads`
-lies near the two, by its share of each (docs/performance.md).
+Three kernels bound a split over samples (dcmppi.control.threads) from above: scalar
+multiply-adds in registers (`compute`), vector multiply-adds over an array in L1 (`vector`:
+the throughput of a core's vector units, as the controllers' vectorised loops use them), and a
+stream of arrays larger than a core's L2 cache (`stream`), as a controller's step streams its
+controls and states at K = 2048, N = 100. Where two of the machine's CPUs are one core's two
+hardware threads, they share its vector units: `vector` then gains about 1 x while `compute`
+still gains nearly 2 x. On a machine whose cores share their L3 cache and memory bandwidth
+`stream` gains less. A step's gain from `threads` lies near the three, by its share of each
+(docs/performance.md).
 """
 
 import threading
@@ -14,6 +18,7 @@ import numba
 import numpy as np
 
 STREAM_BYTES = 4 * 2**20  # per thread, read and written: beyond L2, within a shared L3
+VECTOR_SIZE = 512  # float64 values, 4 KB: in L1
 REPEATS = 7
 
 
@@ -36,6 +41,17 @@ def compute(n):
             a7 * 0.9999999 + 1e-7,
         )
     return a0 + a1 + a2 + a3 + a4 + a5 + a6 + a7
+
+
+@numba.njit(nogil=True, cache=True)
+def vector(rounds):
+    """rounds passes of y = 0.9999999 y + 1e-7 over VECTOR_SIZE values that stay in L1, which
+    the compiler vectorises; returns their sum."""
+    y = np.ones(VECTOR_SIZE)
+    for _ in range(rounds):
+        for i in range(VECTOR_SIZE):
+            y[i] = y[i] * 0.9999999 + 1e-7
+    return y.sum()
 
 
 @numba.njit(nogil=True, cache=True)
@@ -69,13 +85,14 @@ def _gain(fn, args):
 
 
 def machine_gains(threads):
-    """{"threads": T, "compute": gain, "stream": gain}: the work of T threads at once over
-    their time, in units of one thread's rate, for `compute` and for `stream` over
-    STREAM_BYTES per thread."""
+    """{"threads": T, "compute": gain, "vector": gain, "stream": gain}: the work of T threads
+    at once over their time, in units of one thread's rate, for `compute`, `vector` and
+    `stream` over STREAM_BYTES per thread."""
     n = STREAM_BYTES // 16
     arrays = [(np.ones(n), np.empty(n), 80 * 2**20 // STREAM_BYTES) for _ in range(threads)]
     return {
         "threads": threads,
         "compute": _gain(compute, [(10_000_000,)] * threads),
+        "vector": _gain(vector, [(100_000,)] * threads),
         "stream": _gain(stream, arrays),
     }

@@ -131,7 +131,7 @@ def cluster_updates(U0, eps, S, lambda_, labels, raw=None, bound=None):
         raise ValueError(f"raw needs one control and shape (K,) = ({K},); got {np.shape(raw)}")
     M = int(labels.max()) + 1 if K else 0
     w = _cluster_exponents(S, labels, M, lambda_)
-    np.exp(w, out=w)  # numpy's vectorised exp, not numba's scalar one (docs/performance.md)
+    np.exp(w, out=w)  # numpy's exp, as mppi_weights' (vectorised with AVX-512; performance.md)
     if raw is None:
         raw, bound = np.zeros(0), 0.0
     flat = np.reshape(eps, (N * nu, K))

@@ -23,6 +23,7 @@ import numba
 import numpy as np
 
 PAIRWISE_BLOCK = 128  # numpy's PW_BLOCKSIZE
+_STACK = 200  # pairwise's runs: over twice the halvings of any array that fits in memory
 
 
 @numba.njit(inline="always")
@@ -108,9 +109,6 @@ def pairwise(p):
             runs[top + 2, 0], runs[top + 2, 1], runs[top + 2, 2] = lo, half, 0
             top += 3
     return sums[0]
-
-
-_STACK = 200  # over twice the halvings of any array that fits in memory
 
 
 @numba.njit(inline="always")

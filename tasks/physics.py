@@ -192,7 +192,7 @@ class Physics(dm_mujoco.Physics):
         self._qpos, self._qvel, self._ctrl = d.qpos, d.qvel, d.ctrl
         self._qfrc_applied = d.qfrc_applied
         self._opt = m.opt
-        self._flags = int(m.opt.disableflags)  # the model's own: contacts on
+        self._contact_off = False  # collision detection switched off by _activate_near
         self._geom_conaffinity, self._body_conaffinity = m.geom_conaffinity, m.body_conaffinity
         self._gain = m.actuator_gainprm[:, 0].copy()  # kv of the planar and turn actuators
         self._mocap_xy = d.mocap_pos[self._mocap, :2]
@@ -257,7 +257,7 @@ class Physics(dm_mujoco.Physics):
         _set_cylinders(m, self._moving_ids, moving[:, 3])
         m.geom_conaffinity[self._moving_ids] = 0
         m.body_conaffinity[self._moving_bodies] = 0
-        self._opt.disableflags = self._flags
+        self._switch_contacts(True)
         self._near = None
         self._walking = len(moving) > 0 and world.behavior != BEHAVIOR_CONSTANT
         obstacle_speed = 0.0
@@ -400,8 +400,17 @@ class Physics(dm_mujoco.Physics):
             if len(self._moving_ids):
                 self._geom_conaffinity[self._moving_ids] = moving
                 self._body_conaffinity[self._moving_bodies] = moving
-            touch = static.any() or moving.any()
-            self._opt.disableflags = self._flags if touch else self._flags | _NO_CONTACT
+            self._switch_contacts(static.any() or moving.any())
+
+    def _switch_contacts(self, on):
+        """MuJoCo's collision detection on or off by its disable bit, leaving every other bit
+        as the model has it: a user's own flags, their contact bit too (one set while ours is set
+        cannot be told from ours)."""
+        flags = int(self._opt.disableflags)
+        if self._contact_off:  # the bit is ours to clear
+            flags &= ~_NO_CONTACT
+        self._contact_off = not on and not flags & _NO_CONTACT
+        self._opt.disableflags = flags if on else flags | _NO_CONTACT
 
     def _record_contact(self):
         d = self._d

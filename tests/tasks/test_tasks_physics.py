@@ -405,3 +405,28 @@ def test_collision_detection_is_off_only_with_nothing_near(task, params, monkeyp
     assert [(off, near) for _, off, near in rows].count((True, False)) > 10
     assert all(off != near for _, off, near in rows)  # off exactly when nothing is near
     assert not any(off for _, off, _ in always)
+
+
+def test_a_user_s_disable_flags_survive_resets_and_the_contact_switch():
+    """Switching collision detection off where nothing is near touches only its own bit: flags
+    a user sets on the model stay through resets and steps, contacts off included."""
+    bits = mujoco.mjtDisableBit
+    env = tasks.load("blocked")
+    m = env.physics.model
+    m.opt.disableflags |= bits.mjDSBL_WARMSTART
+    offs = set()
+    for _ in range(2):
+        env.reset()
+        for _ in range(20):
+            env.step([0.0])
+            assert m.opt.disableflags & bits.mjDSBL_WARMSTART
+            offs.add(bool(m.opt.disableflags & bits.mjDSBL_CONTACT))
+    assert offs == {True}  # nothing near in the first steps: the switch was used
+    env = tasks.load("blocked")
+    m = env.physics.model
+    m.opt.disableflags |= bits.mjDSBL_CONTACT  # the user's own: contacts off for good
+    ts = env.reset()
+    while not ts.last():
+        ts = env.step([0.0])
+        assert m.opt.disableflags & bits.mjDSBL_CONTACT
+    assert env.physics.first_contact is None  # it drove through the blocking obstacle

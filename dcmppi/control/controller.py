@@ -329,7 +329,8 @@ class Controller:
         return project_perturbed(self.agent, U0, eps, sums)
 
     def perturbed_rollouts(self, x0, eps=None, starts=1, sums=False, moving=False):
-        """A step's per-sample work, its samples split over `threads` threads: the controls
+        """A step's per-sample work, its samples split over `threads` threads (on this thread
+        alone when controls() or evaluate() is replaced, which are then called): the controls
         project(U + eps) (Controller.controls), their rollouts from x0 and costs under this
         step's objective (Controller.evaluate), and the importance term (Controller.importance;
         with per-step draws into a box (or a disc) its sums over the steps come from the draws'
@@ -350,7 +351,9 @@ class Controller:
             with self.timer("sample"):
                 eps = self.sample()
         K = self.K if in_pass else eps.shape[2]
-        ranges = parts(K, self.threads)
+        # a replaced controls() or evaluate() is called as it is, on this thread
+        split = self._own("controls") and self._own("evaluate")
+        ranges = parts(K, self.threads) if split else ((0, K),)
         # the pass that bounds the controls is ours (not a replaced controls()); then it sums the
         # importance term over the steps too, unless importance() is replaced
         ours = in_pass or len(ranges) > 1 or self._own("controls")

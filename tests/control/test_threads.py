@@ -12,6 +12,7 @@ from threadpoolctl import threadpool_limits
 
 import dcmppi
 from dcmppi.control.dynamics import arc_columns, dubins_step
+from dcmppi.control.mppi import MPPI
 from dcmppi.control.threads import ALIGN, parts, run
 
 GOAL = np.array([12.0, 1.0])
@@ -71,6 +72,37 @@ def test_three_threads_and_the_auto_temperature():
         one, _ = closed_loop("clustered", "holonomic", 1, lambda_="auto")
         three, _ = closed_loop("clustered", "holonomic", 3, lambda_="auto")
     assert len(parts(300, 3)) == 3 and np.array_equal(one, three)
+
+
+class HalfPerturbations(MPPI):
+    """Its own controls(): half of every perturbation."""
+
+    def controls(self, U0, eps, sums=False):
+        self.calls += 1
+        return super().controls(U0, 0.5 * np.asarray(eps), sums)
+
+
+class HeadingCost(MPPI):
+    """Its own evaluate(): the final heading's square added to J."""
+
+    def evaluate(self, x0, u, starts=1, moving=False):
+        self.calls += 1
+        states, J, *rest = super().evaluate(x0, u, starts, moving)
+        return (states, J + 100.0 * states[2, -1] ** 2, *rest)
+
+
+@pytest.mark.parametrize("cls", [HalfPerturbations, HeadingCost])
+def test_a_replaced_controls_or_evaluate_is_called_whatever_the_threads(cls):
+    """A subclass's controls() or evaluate() plans with threads as without: it is called."""
+    actions = []
+    for threads in (1, 2):
+        ctrl = cls(K=256, N=10, seed=0, threads=threads, perturbation="constant")
+        ctrl.calls = 0
+        actions.append(ctrl.act([0.0, 0.0, 0.0], [5.0, 3.0]))
+        assert ctrl.calls == 1
+    plain = dcmppi.make_controller("mppi", K=256, N=10, seed=0, perturbation="constant")
+    assert np.array_equal(actions[0], actions[1])
+    assert not np.array_equal(actions[0], plain.act([0.0, 0.0, 0.0], [5.0, 3.0]))
 
 
 def test_sharp_arcs_in_one_part_only():

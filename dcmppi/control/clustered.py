@@ -224,9 +224,9 @@ class ClusteredMPPI(MPPI):
             unit = self.objective.prediction.unit
             cost = (
                 S
-                if term is None or unit == self.cost_unit
+                if term is None or unit == self.cost_unit or not unit
                 else S + term * (self.cost_unit / unit - 1.0)
-            )  # moving-obstacle term in units of the prediction's collision_cost
+            )  # moving-obstacle term in units of the prediction's collision_cost (0: no term)
             features = features_of_sums(sums, cost, self._feature_inv, self._cost_scale)
         with timer("DBSCAN"):
             best = int(np.argmin(S))

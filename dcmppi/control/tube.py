@@ -22,6 +22,8 @@ Units (one rule for every experiment and agent, never tuned on a table):
   units over 51 states) never decide it.
 """
 
+import numbers
+
 import numba
 import numpy as np
 
@@ -191,7 +193,7 @@ class TubeMPPI(MPPI):
     ):
         super().__init__(**params)
         t = 0.5 * self.alpha if reset_threshold is None else reset_threshold
-        if isinstance(t, bool) or not isinstance(t, (int, float)) or not np.isfinite(t):
+        if isinstance(t, bool) or not isinstance(t, numbers.Real) or not np.isfinite(t):
             raise ValueError(f"reset_threshold must be a finite number; got {reset_threshold!r}")
         self.reset_threshold = float(t)
         self.max_deviation = positive("max_deviation", max_deviation)

@@ -233,3 +233,18 @@ def test_bad_cluster_parameters_are_named():
     ):
         with pytest.raises(ValueError, match=word):
             dcmppi.make_controller("clustered", **params)
+
+
+@pytest.mark.parametrize(
+    "name, params", [("clustered", {"alpha": 0.0, "cost_unit": 1.0}), ("dc", {"beta": 0.0})]
+)
+def test_a_moving_obstacle_term_of_weight_zero_adds_nothing_to_the_features(name, params):
+    """With the moving obstacles' weight 0 (alpha for frozen ones, beta for futures) their term
+    is 0, in any unit: the features are those of the costs S."""
+    ctrl = dcmppi.make_controller(name, K=64, N=10, seed=0, **params)
+    moving = np.array([[1.0, 0.0, np.pi, 0.3]])  # in reach
+    u = ctrl.act([0.0, 0.0, 0.0], [5.0, 0.0], None, moving, [1.0, 0.1, 0.0, 0.1])
+    assert np.isfinite(u).all() and ctrl.objective.weight == 0.0
+    plain = dcmppi.make_controller(name, K=64, N=10, seed=0, **params)
+    plain.act([0.0, 0.0, 0.0], [5.0, 0.0], None, None, [1.0, 0.1, 0.0, 0.1])
+    assert np.array_equal(ctrl.diagnostics.features, plain.diagnostics.features)

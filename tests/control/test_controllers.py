@@ -27,6 +27,7 @@ def test_registry_lists_names():
         ({"N": 0}, "N"),
         ({"lambda_": 0.0}, "lambda_"),
         ({"Sigma": -1.0}, "Sigma"),
+        ({"Sigma": 1e-320}, "Sigma of omega must be at least 1e-308"),  # 1 / Sigma overflows
         ({"Sigma": [0.1, 0.1]}, "one variance per control"),  # dubins has one control
         ({"v": 0}, "v"),
         ({"dt": float("nan")}, "dt"),

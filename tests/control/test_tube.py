@@ -1,6 +1,7 @@
 """Tube-MPPI: nominal resets, LQR tracking on the analytic model."""
 
 import numpy as np
+import pytest
 
 import dcmppi
 from dcmppi.control.agents import make_agent
@@ -21,6 +22,15 @@ def step_with_nominal(nominal, real, threshold):
 def test_nominal_resets_when_real_state_is_better():
     d = step_with_nominal([0.0, 0.0, 0.0], [2.0, 0.0, 0.0], threshold=0.0)  # real closer to goal
     assert d.nominal_reset and np.array_equal(d.nominal_state, [2.0, 0.0, 0.0])
+
+
+def test_reset_threshold_takes_any_real_number_and_names_a_bad_one():
+    """A numpy scalar threshold acts as the float; nan or a string is named."""
+    for threshold in (np.float32(1e4), np.int64(10000)):
+        assert step_with_nominal([2.0, 0.0, 0.0], [0.0, 0.0, 0.0], threshold).nominal_reset
+    for bad in (float("nan"), "1", True):
+        with pytest.raises(ValueError, match="reset_threshold must be a finite number"):
+            dcmppi.make_controller("tube", reset_threshold=bad)
 
 
 def test_nominal_kept_when_real_state_is_worse():

@@ -167,7 +167,8 @@ class Agent:
 
     def variances(self, Sigma=None, allow_zero=False):
         """Sigma as (nu,) variances, one per control in its own units: a sequence of nu, a number
-        for a 1-control agent, or None for `default_Sigma`. A ValueError names a bad entry."""
+        for a 1-control agent, or None for `default_Sigma`. A ValueError names a bad entry (each
+        1 / Sigma must be finite too)."""
         values = np.array(self.default_Sigma if Sigma is None else Sigma, dtype=float)
         if values.size != self.nu or values.ndim > 1:
             raise ValueError(
@@ -175,7 +176,11 @@ class Agent:
                 f"{self.name!r} (each in its control's units); got {Sigma!r}"
             )
         for c, s in zip(self.controls, values.reshape(-1), strict=True):
-            positive(f"Sigma of {c}", float(s), allow_zero=allow_zero)
+            s = positive(f"Sigma of {c}", float(s), allow_zero=allow_zero)
+            if s and 1.0 / s == math.inf:  # the importance term divides by it
+                raise ValueError(
+                    f"Sigma of {c} must be at least 1e-308 (a finite 1 / Sigma); got {s}"
+                )
         return values.reshape(-1)
 
     def first_guess(self, state, goal, N):

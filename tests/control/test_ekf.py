@@ -133,6 +133,21 @@ def test_posterior_samples_have_the_posterior_moments():
         np.testing.assert_allclose(np.cov(d.T), cov[l], atol=0.005)
 
 
+def test_a_speed_and_turn_rate_known_exactly_are_drawn_exactly():
+    """An obstacle model with zero spreads (valid: speeds known exactly) gives draws at the
+    mean speed and turn rate, and dc plans with it (its covariance has no Cholesky factor)."""
+    model = np.array([0.8, 0.0, 0.1, 0.0])
+    f = ObstacleFilter(model, 0.1, DT)
+    f.update(np.array([[1.0, 2.0], [3.0, -1.0]]))
+    draws = f.sample(np.random.default_rng(0), 500)
+    np.testing.assert_allclose(draws[..., 3], 0.8, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(draws[..., 4], 0.1, rtol=0, atol=1e-12)
+    assert draws[..., :3].std(axis=1).min() > 0.05  # positions and headings still spread
+    ctrl = dcmppi.make_controller("dc", prediction="ekf", K=64, N=10, seed=0)
+    moving = np.array([[1.0, 0.0, np.pi, 0.3]])
+    assert np.isfinite(ctrl.act([0.0, 0.0, 0.0], [5.0, 0.0], None, moving, model)).all()
+
+
 def test_reflection_is_detected_and_the_track_recovers():
     """An obstacle that bounces off a wall (heading mirrored) is tracked again within 2 s
     (measured over 6 seeds: heading error below 0.1 rad 0.7-1.3 s after the bounce)."""

@@ -200,7 +200,12 @@ class ObstacleFilter:
         u = rng.random((L, P))
         component = np.minimum((u[..., None] > cumulative[:, None, :]).sum(axis=-1), M - 1)
         rows = np.arange(L)[:, None]
-        chol = np.linalg.cholesky(self.covs)[rows, component]  # (L, P, 5, 5)
+        try:
+            roots = np.linalg.cholesky(self.covs)
+        except np.linalg.LinAlgError:  # a variance of 0 (a speed known exactly): C = A A^T
+            w, V = np.linalg.eigh(self.covs)
+            roots = V * np.sqrt(np.maximum(w, 0.0))[..., None, :]
+        chol = roots[rows, component]  # (L, P, 5, 5)
         z = standard_normal(rng, (L, P, 5))
         return self.means[rows, component] + np.einsum("lpij,lpj->lpi", chol, z)
 

@@ -46,6 +46,26 @@ def test_the_futures_are_the_tracks_with_weight_beta_per_future():
     np.testing.assert_array_equal(p.distance, [0.5 + ctrl.robot_radius] * 2)
 
 
+def test_obstacles_out_of_reach_are_left_out_and_change_nothing():
+    """A parked obstacle 2 km away (which would spread the step's track cells over 2 km) is left
+    out; one that comes within reach only at the horizon's end is kept; the plan is the same."""
+    moving, future = crossing(0)
+    N = future.shape[2] - 1
+    far = np.full((1, 1, N + 1, 2), 2000.0)
+    late = np.stack([np.full(N + 1, 6.0), np.linspace(40.0, 0.0, N + 1)], axis=-1)[None, None]
+    late_now = np.array([[6.0, 40.0, -np.pi / 2, 0.5]])  # 40 m away now, at the robot's reach
+    rows = np.vstack([moving, [[2000.0, 2000.0, 0.0, 0.5]], late_now])
+    futures = np.concatenate([future, far, late])
+    plans = []
+    for state_rows, state_futures in ((rows, futures), (rows[[0, 2]], futures[[0, 2]])):
+        ctrl = dcmppi.make_controller("dc", agent="holonomic", prediction="given", seed=0)
+        plans.append(
+            ctrl.act(np.zeros(3), GOAL, None, state_rows, None, moving_futures=state_futures)
+        )
+        np.testing.assert_array_equal(ctrl.diagnostics.prediction.futures, futures[[0, 2]])
+    assert np.array_equal(plans[0], plans[1])
+
+
 def test_padding_rows_drop_their_futures_too():
     ctrl = dcmppi.make_controller("mppi", agent="holonomic", prediction="given", seed=0)
     moving, future = crossing(0)

@@ -4,7 +4,8 @@ For a robot whose own forecaster (a learnt model, a tracker's) predicts the movi
 and for the benchmark's oracle: where the obstacles ignore the robot their true paths are known
 in advance (dcmppi.bench.runner gives them), which says how far a planner gets with a perfect
 prediction. F futures per obstacle, each weight beta / F; a certain collision costs beta, as
-with the sampled futures of "prior".
+with the sampled futures of "prior". An obstacle is left out when none of its futures comes
+within reach of a rollout at any step.
 """
 
 import numpy as np
@@ -23,7 +24,18 @@ class Given(SampledFutures):
         if len(moving) == 0:
             return self.none()
         futures = check_futures(futures, len(moving), self.N)
-        return self.prediction(futures, moving[:, 3] + self.obstacle_margin)
+        radius = moving[:, 3] + self.obstacle_margin
+        near = self.reached(state, futures, radius)
+        return self.prediction(futures[near], radius[near])
+
+    def reached(self, state, futures, radius):
+        """(L,) whether some future of each obstacle comes within collision distance of some
+        rollout: |f(t_i) - p_0| <= v_max t_i + robot_radius + radius at some step i. The others
+        cost nothing, and their far positions would only spread the step's track cells."""
+        t = np.arange(self.N + 1) * self.dt
+        reach = self.max_speed * t + self.robot_radius + radius[:, None, None]  # (L, 1, N + 1)
+        gap = np.hypot(futures[..., 0] - state[0], futures[..., 1] - state[1])  # (L, F, N + 1)
+        return (gap <= reach).any(axis=(1, 2))
 
 
 def check_futures(futures, L, N) -> np.ndarray:

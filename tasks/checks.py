@@ -17,11 +17,24 @@ def check_range(name, value, low=None, strict=False):
         lo, hi = (float(x) for x in value)
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be a pair (low, high), got {value!r}") from None
+    if not (np.isfinite(lo) and np.isfinite(hi)):
+        raise ValueError(f"{name} must be a pair of finite numbers (low, high), got {value!r}")
     below = low is not None and (lo <= low if strict else lo < low)
     if not lo <= hi or below:
         bound = "" if low is None else f"{low} {'<' if strict else '<='} "
         raise ValueError(f"{name} must satisfy {bound}low <= high, got {value!r}")
     return lo, hi
+
+
+def check_finite(name, value):
+    """`value` as a finite float, else a ValueError naming `name`."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = np.nan
+    if not np.isfinite(number):
+        raise ValueError(f"{name} must be a finite number, got {value!r}")
+    return number
 
 
 def check_flag(name, value):

@@ -30,6 +30,7 @@ FOREST_RADIUS_RANGE = (0.4, 1.6)  # [m] radii of the cylinders
 # Crowd (docs/design.md, Experiments): moving cylinders on Dubins arcs, or walkers.
 CROWD_SIZE = 100
 CROWD_START_CLEARANCE = 3.0  # [m] no moving obstacle surface this close to the start
+CROWD_REDRAWS = 1000  # draws of the obstacles near the start before giving up
 MOVING_OBSTACLE_RADIUS = 1.0  # [m]
 
 
@@ -99,7 +100,8 @@ def generate_crowd(
 ) -> World:
     """The dynamic crowd (docs/design.md): uniform positions, headings, speeds and turn rates.
 
-    Obstacles whose surface starts within CROWD_START_CLEARANCE of the start are redrawn.
+    Obstacles whose surface starts within CROWD_START_CLEARANCE of the start are redrawn (a
+    ValueError when some are still near after CROWD_REDRAWS rounds).
     With a pedestrians' `behavior` (not "constant") the same draws follow, then each obstacle
     overlapping an earlier one is redrawn (`place_discs`), and each gets a goal (a uniform point
     of the map) and its drawn speed as its preferred speed, heading for its goal.
@@ -108,11 +110,17 @@ def generate_crowd(
     start, goal = sample_start_goal(random, np.zeros((0, 3)), bounds, robot_radius)
     n = int(n_obstacles)
     xy = random.uniform(bounds[:2], bounds[2:], size=(n, 2))
-    while True:
+    for _ in range(CROWD_REDRAWS):
         near = np.hypot(*(xy - start[:2]).T) - obstacle_radius < CROWD_START_CLEARANCE
         if not near.any():
             break
         xy[near] = random.uniform(bounds[:2], bounds[2:], size=(near.sum(), 2))
+    else:
+        raise ValueError(
+            f"obstacles of radius {obstacle_radius:g} m find no place {CROWD_START_CLEARANCE:g} "
+            f"m clear of the start on a {map_size[0]:g} x {map_size[1]:g} m map: lower "
+            "obstacle_radius"
+        )
     heading = random.uniform(0.0, 2.0 * np.pi, size=n)
     speed = random.uniform(*speed_range, size=n)
     turn_rate = random.uniform(*turn_rate_range, size=n)

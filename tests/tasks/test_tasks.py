@@ -250,6 +250,29 @@ def test_bad_crowd_and_crossing_kwargs():
         tasks.load("crowd", {"speed_range": (2.0, 1.0)})
     with pytest.raises(ValueError, match="meet_fraction"):
         tasks.load("crossing", {"meet_fraction": 1.5})
+    for task, kwargs, message in [
+        ("crowd", {"speed_range": (0.5, float("inf"))}, "speed_range must be a pair of finite"),
+        ("crowd", {"turn_rate_range": (float("nan"), 0.1)}, "turn_rate_range must be a pair of"),
+        ("crossing", {"approach_angle": float("nan")}, "approach_angle must be a finite number"),
+        ("crossing", {"obstacle_turn_rate": "left"}, "obstacle_turn_rate must be a finite"),
+    ]:
+        with pytest.raises(ValueError, match=message):
+            tasks.load(task, kwargs)
+
+
+def test_a_crowd_with_no_room_clear_of_the_start_is_refused():
+    """Obstacles too large to start clear of the robot: one line at reset, not a loop forever."""
+    env = tasks.load("crowd", {"random": 0, "obstacle_radius": 50.0})
+    with pytest.raises(ValueError, match="find no place 3 m clear of the start.*obstacle_radius"):
+        env.reset()
+
+
+def test_a_crowd_of_thousands_loads_and_steps():
+    """MuJoCo's broadphase needs a stack of about two bytes per pair of bodies: the arena grows
+    with thousands of moving obstacles (its default holds about 1500)."""
+    env = tasks.load("crowd", {"random": 0, "n_obstacles": 2500, "agent": "holonomic"})
+    env.reset()
+    assert len(env.step([0.0, 0.0, 0.0]).observation["moving_obstacles"]) == 2500
 
 
 def test_environment_time_limit_is_redirected_to_the_task():

@@ -34,6 +34,7 @@ _HIDDEN_GROUP = 3  # geom group that MuJoCo's renderer hides by default
 _NO_CONTACT = int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
 ROBOT_PREFIX = "robot/"  # names of the attached robot file's elements get this prefix
 ROBOT_FILE_RADIUS = 0.5  # [m] hull radius the robot files are drawn at
+BROADPHASE_BYTES = 4  # per pair of bodies: MuJoCo's broadphase stack (2 measured), with room
 
 
 @functools.lru_cache(maxsize=32)
@@ -44,8 +45,8 @@ def _compiled_model(robot_file, num_static, num_moving, robot_radius) -> mujoco.
     spec = mujoco.MjSpec.from_string(models.joinpath("arena.xml").read_text())
     robot = mujoco.MjSpec.from_string(models.joinpath("robots", robot_file).read_text())
     scale = robot_radius / ROBOT_FILE_RADIUS
-    for geom in robot.geoms:  # drawn geoms follow the hull's radius
-        geom.pos = np.asarray(geom.pos) * scale
+    for geom in robot.geoms:  # drawn geoms follow the hull's radius, at their heights
+        geom.pos = np.asarray(geom.pos) * [scale, scale, 1.0]
         geom.size = np.asarray(geom.size) * (scale if geom.name != "hull" else 1.0)
     robot.geom("hull").size[0] = robot_radius
     spec.attach(robot, prefix=ROBOT_PREFIX, frame=spec.worldbody.add_frame())
@@ -66,7 +67,12 @@ def _compiled_model(robot_file, num_static, num_moving, robot_radius) -> mujoco.
         body.add_geom(
             heading_class, name=f"moving_heading_{i}", pos=[0.5, 0.0, OBSTACLE_HALF_HEIGHT + 0.02]
         )
-    return spec.compile()
+    model = spec.compile()
+    pairs = BROADPHASE_BYTES * model.nbody**2  # the broadphase's stack, beside the default arena
+    if 2 * pairs > model.narena:  # thousands of moving obstacles (bodies)
+        spec.memory = model.narena + pairs
+        model = spec.compile()
+    return model
 
 
 def _set_cylinders(model, ids, radius, half_height=OBSTACLE_HALF_HEIGHT):
@@ -78,6 +84,15 @@ def _set_cylinders(model, ids, radius, half_height=OBSTACLE_HALF_HEIGHT):
     model.geom_aabb[ids, 3] = radius
     model.geom_aabb[ids, 4] = radius
     model.geom_aabb[ids, 5] = half_height
+
+
+def _set_heading_bars(model, ids, radius):
+    """Sizes each moving obstacle's heading bar to its radius (from 0.1 to 0.9 of it, ahead of
+    the centre) and its bounding volumes; the bars collide with nothing."""
+    model.geom_pos[ids, 0] = 0.5 * radius
+    model.geom_size[ids, 0] = 0.4 * radius
+    model.geom_rbound[ids] = np.linalg.norm(model.geom_size[ids], axis=1)
+    model.geom_aabb[ids, 3] = model.geom_size[ids, 0]
 
 
 # no static obstacles and no moving ones, for _clearances
@@ -185,6 +200,9 @@ class Physics(dm_mujoco.Physics):
         self._static_ids = np.arange(first, first + num_static)
         self._moving_ids = np.array([m.geom(f"moving_{i}").id for i in range(num_moving)], int)
         self._moving_bodies = np.array([m.body(f"moving_{i}").id for i in range(num_moving)], int)
+        self._heading_ids = np.array(
+            [m.geom(f"moving_heading_{i}").id for i in range(num_moving)], int
+        )
         mocap = m.body_mocapid[self._moving_bodies]
         if num_moving and not (np.diff(mocap) == 1).all():
             raise RuntimeError("moving obstacle mocap slots are not contiguous")
@@ -255,6 +273,7 @@ class Physics(dm_mujoco.Physics):
         moving = world.moving
         self._moving_obs[:, 3] = moving[:, 3]
         _set_cylinders(m, self._moving_ids, moving[:, 3])
+        _set_heading_bars(m, self._heading_ids, moving[:, 3])
         m.geom_conaffinity[self._moving_ids] = 0
         m.body_conaffinity[self._moving_bodies] = 0
         self._switch_contacts(True)

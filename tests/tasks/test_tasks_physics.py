@@ -430,3 +430,24 @@ def test_a_user_s_disable_flags_survive_resets_and_the_contact_switch():
         ts = env.step([0.0])
         assert m.opt.disableflags & bits.mjDSBL_CONTACT
     assert env.physics.first_contact is None  # it drove through the blocking obstacle
+
+
+@pytest.mark.parametrize("robot_radius", [0.3, 0.5, 1.0])
+def test_drawn_geoms_follow_the_radii_and_stay_in_sight(robot_radius):
+    """The robot's drawn geoms scale with its radius in the plane and keep their heights: the
+    heading marker stays on top of the hull (a 0.3 m robot's is not buried in it). Each moving
+    obstacle's heading bar spans 0.1 to 0.9 of its own radius."""
+    env = tasks.load("corridor", {"robot_radius": robot_radius, "random": 0})
+    env.reset()
+    m = env.physics.model
+    hull, marker = m.geom("robot/hull").id, m.geom("robot/heading").id
+    assert m.geom_pos[marker, 2] > m.geom_size[hull, 1]  # its centre above the hull's top
+    np.testing.assert_allclose(m.geom_pos[marker, 0] + m.geom_size[marker, 0], robot_radius)
+    for g in range(m.ngeom):
+        if m.geom(g).name.startswith("robot/wheel"):
+            assert m.geom_pos[g, 2] == -0.1  # the robot file's height, whatever the radius
+    bars = env.physics._heading_ids
+    radius = env.physics.moving_obstacles()[:, 3]
+    assert radius.min() > 0
+    np.testing.assert_allclose(m.geom_pos[bars, 0] - m.geom_size[bars, 0], 0.1 * radius)
+    np.testing.assert_allclose(m.geom_pos[bars, 0] + m.geom_size[bars, 0], 0.9 * radius)

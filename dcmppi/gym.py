@@ -13,8 +13,9 @@ task of `dcmppi.tasks`; every other keyword of `gymnasium.make` is a task kwarg 
 parameters, `noise`, `n_clusters`, `behavior`, ...).
 
 - Observation: a Dict of the task's observation arrays (float64, unbounded; shapes from the
-  task's observation_spec, e.g. static_obstacles (M, 3), moving_velocity (L, 2): nan when
-  obstacle_measurement_std > 0); `flatten_observation=True` gives
+  task's observation_spec, e.g. static_obstacles (M, 3), moving_velocity (L, 2)); with
+  obstacle_measurement_std > 0 the obstacles' headings and velocities, which the task gives
+  as nan (not observed), are 0 here (a Box holds no nan); `flatten_observation=True` gives
   one flat Box instead, in the order of `env.unwrapped.dict_observation_space`
   (`gymnasium.spaces.unflatten` undoes it).
 - Action: a Box in [-1, 1] per control (float32), mapped affinely onto the task's action
@@ -179,6 +180,9 @@ class NavigationEnv(gymnasium.Env):
     def _observation(self, observation):
         names = self.dict_observation_space.spaces
         obs = {name: np.array(observation[name], dtype=np.float64) for name in names}
+        if self.task.obstacle_measurement_std > 0:  # not observed: 0, as a Box holds no nan
+            obs["moving_obstacles"][:, 2] = 0.0
+            obs["moving_velocity"][:] = 0.0
         if self.flatten_observation:
             return spaces.flatten(self.dict_observation_space, obs)
         return obs

@@ -260,6 +260,8 @@ class Renderer:
 
     def __init__(self, model, width, height, max_geom=20000):
         buffer = model.vis.global_.offwidth, model.vis.global_.offheight
+        if not (width >= 1 and height >= 1):
+            raise ValueError(f"frame {width}x{height}: width and height must be at least 1 pixel")
         if width > buffer[0] or height > buffer[1]:
             raise ValueError(
                 f"frame {width}x{height} exceeds the model's offscreen buffer "

@@ -160,6 +160,28 @@ def test_bad_arguments_name_the_problem():
         gymnasium.make("dcmppi/Blocked-v0", n_cluster=3)
 
 
+def test_unobserved_headings_and_velocities_are_0_inside_the_space():
+    """With measurement noise the task gives nan for what is not observed; a Box holds no nan,
+    so the Gymnasium observation has 0 there, and the env passes gymnasium's checker."""
+    env = gymnasium.make("dcmppi/Crowd-v0", obstacle_measurement_std=0.1, n_obstacles=3)
+    obs, _ = env.reset(seed=0)
+    assert env.observation_space.contains(obs)
+    assert not obs["moving_obstacles"][:, 2].any() and not obs["moving_velocity"].any()
+    truth = env.unwrapped.dm_env.physics.moving_obstacles()[:, :2]
+    assert not np.array_equal(obs["moving_obstacles"][:, :2], truth)  # noisy positions
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        warnings.filterwarnings("ignore", message=".*infinity")  # unbounded Boxes
+        check_env(env.unwrapped, skip_render_check=True)
+
+
+def test_a_frame_of_no_pixels_is_refused():
+    env = gymnasium.make("dcmppi/Blocked-v0", render_mode="rgb_array", render_width=0)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="at least 1 pixel"):
+        env.render()
+
+
 def test_without_gymnasium_the_import_names_the_extra():
     code = "import sys; sys.modules['gymnasium'] = None; import dcmppi.gym"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)

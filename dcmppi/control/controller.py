@@ -30,7 +30,7 @@ from .sums import importance, importance_of
 from .temperature import COLLISION_NATS, ESS_TARGET, choose_lambda
 from .threads import parts, run
 from .timer import NO_TIMER
-from .validation import positive
+from .validation import floats, positive
 
 PERTURBATIONS = ("constant", "time_varying", "mixed")
 AUTO = "auto"  # lambda_ chosen each step (dcmppi.control.temperature)
@@ -128,8 +128,11 @@ class Controller:
         self.resolution = positive("resolution", resolution)
         self.obstacle_margin = positive("obstacle_margin", obstacle_margin, allow_zero=True)
         self.threads = positive("threads", threads, integer=True)
-        if seed is not None and not isinstance(seed, (numbers.Integral, np.random.Generator)):
-            raise ValueError(f"seed must be None, an int or a np.random.Generator; got {seed!r}")
+        generator = isinstance(seed, np.random.Generator)
+        if not (seed is None or generator or isinstance(seed, numbers.Integral) and seed >= 0):
+            raise ValueError(
+                f"seed must be None, an int >= 0 or a np.random.Generator; got {seed!r}"
+            )
         self.seed = seed
         self.prediction = prediction
         self.predictor = predictor(
@@ -228,8 +231,8 @@ class Controller:
         Returns:
           (nu,) controls within the agent's bounds (dubins: the turn rate omega).
         """
-        state = np.asarray(state, dtype=float)
-        goal = np.asarray(goal, dtype=float)
+        state = floats("state", state)
+        goal = floats("goal", goal)
         if state.shape != (3,) or goal.shape != (2,):
             raise ValueError(f"state must be (3,) and goal (2,); got {state.shape}, {goal.shape}")
         if not all(abs(v) < MAX_COORDINATE for v in (*state.tolist(), *goal.tolist())):  # nan too

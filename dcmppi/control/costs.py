@@ -17,6 +17,7 @@ import numba
 import numpy as np
 
 from .threads import in_cols, n_cols
+from .validation import floats
 
 RESOLUTION = 0.1  # occupancy-grid cell size [m]
 MAX_CELLS = 1e8  # occupancy-grid cells (100 MB)
@@ -30,7 +31,7 @@ def valid_cylinders(cylinders, name, columns=3, unobserved=None):
     """
     if cylinders is None:
         return np.zeros((0, columns))
-    cylinders = np.asarray(cylinders, dtype=float)
+    cylinders = floats(name, cylinders)
     if cylinders.ndim != 2 or cylinders.shape[1] != columns:
         raise ValueError(f"{name} must have shape (rows, {columns}); got {cylinders.shape}")
     if not len(cylinders):  # no rows (a map without moving obstacles): nothing to check
@@ -50,7 +51,10 @@ def valid_cylinders(cylinders, name, columns=3, unobserved=None):
 
 def _same(values, reference):
     """Whether `values` as float64 have the shape and the bytes of the array `reference`."""
-    values = np.asarray(values, dtype=float)
+    try:
+        values = np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        return False
     return values.shape == reference.shape and values.tobytes() == reference.tobytes()
 
 
@@ -76,7 +80,7 @@ class OccupancyGrid:
     def __init__(self, static, inflation, resolution=RESOLUTION, bounds=None):
         if not resolution > 0:
             raise ValueError(f"resolution must be > 0 m; got {resolution}")
-        self.source = None if static is None else np.array(static, dtype=float)
+        self.source = None if static is None else np.array(floats("static", static))
         self.bounds = _check_bounds(bounds)
         cyl = valid_cylinders(static, "static")
         self.resolution = float(resolution)
@@ -163,7 +167,7 @@ def _check_bounds(bounds):
     """Map bounds as a (4,) array xmin, ymin, xmax, ymax with min < max, or None."""
     if bounds is None:
         return None
-    b = np.array(bounds, dtype=float).reshape(-1)
+    b = np.array(floats("bounds", bounds)).reshape(-1)
     if b.shape != (4,) or not np.isfinite(b).all() or not (b[:2] < b[2:]).all():
         raise ValueError(
             f"bounds must be 4 finite numbers xmin, ymin, xmax, ymax with min < max; got {bounds}"

@@ -3,6 +3,8 @@
 import math
 import numbers
 
+import numpy as np
+
 
 def positive(name, value, integer=False, allow_zero=False):
     """`value` as a float (an int with integer=True), or a ValueError naming `name` when it is
@@ -15,3 +17,11 @@ def positive(name, value, integer=False, allow_zero=False):
         bound = ">= 0" if allow_zero else "> 0"
         raise ValueError(f"{name} must be {bound}; got {value!r}")
     return int(value) if integer else float(value)
+
+
+def floats(name, value):
+    """`value` as a float64 array, or a ValueError naming `name` when it holds no numbers."""
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must hold numbers; got {value!r}") from None

@@ -27,6 +27,7 @@ def test_registry_lists_names():
         ({"N": 0}, "N"),
         ({"lambda_": 0.0}, "lambda_"),
         ({"Sigma": -1.0}, "Sigma"),
+        ({"Sigma": "big"}, "Sigma must hold numbers"),
         ({"Sigma": 1e-320}, "Sigma of omega must be at least 1e-308"),  # 1 / Sigma overflows
         ({"Sigma": [0.1, 0.1]}, "one variance per control"),  # dubins has one control
         ({"v": 0}, "v"),
@@ -54,6 +55,18 @@ def test_bad_inputs():
         ctrl.act(np.zeros(2), np.ones(2))
     with pytest.raises(ValueError, match="static"):
         ctrl.act(np.zeros(3), np.ones(2), np.zeros((3, 2)))
+    words = ("state", "goal", "static", "moving", "obstacle_model", "bounds")
+    for i, word in enumerate(words):  # not numbers: named, not numpy's conversion error
+        args = [np.zeros(3), np.ones(2), None, [[2.0, 0.0, 0.0, 0.3]], np.ones(4), None]
+        args[i] = "abc"
+        with pytest.raises(ValueError, match=f"^{word} must hold numbers; got 'abc'$"):
+            dcmppi.make_controller("dc").act(*args)
+
+
+@pytest.mark.parametrize("seed", [-1, 2.5, "0"])
+def test_a_bad_seed_is_named(seed):
+    with pytest.raises(ValueError, match="seed must be None, an int >= 0 or a np.random"):
+        dcmppi.make_controller("mppi", seed=seed)
 
 
 @pytest.mark.parametrize("name", NAMES)

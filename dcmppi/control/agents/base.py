@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from ..validation import positive
+from ..validation import floats, positive
 
 _AGENTS: dict[str, type] = {}
 
@@ -169,7 +169,7 @@ class Agent:
         """Sigma as (nu,) variances, one per control in its own units: a sequence of nu, a number
         for a 1-control agent, or None for `default_Sigma`. A ValueError names a bad entry (each
         1 / Sigma must be finite too)."""
-        values = np.array(self.default_Sigma if Sigma is None else Sigma, dtype=float)
+        values = np.array(floats("Sigma", self.default_Sigma if Sigma is None else Sigma))
         if values.size != self.nu or values.ndim > 1:
             raise ValueError(
                 f"Sigma must hold one variance per control {self.controls} of agent "

@@ -42,6 +42,7 @@ import numpy as np
 
 from ..dynamics import sinc, wrap_angle
 from ..normal import standard_normal
+from ..validation import floats
 
 STATE = ("x", "y", "heading", "speed", "turn_rate")
 HEADINGS = 8  # heading components per obstacle
@@ -138,7 +139,7 @@ class ObstacleFilter:
     def __init__(
         self, obstacle_model, measurement_std, dt, headings=HEADINGS, process_std=PROCESS_STD
     ):
-        model = np.asarray(obstacle_model, dtype=float)
+        model = floats("obstacle_model", obstacle_model)
         if model.shape != (4,) or not np.isfinite(model).all() or model[1] < 0 or model[3] < 0:
             raise ValueError(
                 "obstacle_model must be (4,) finite v_mean, v_std >= 0, omega_mean, "

@@ -22,6 +22,7 @@ import numpy as np
 
 from ..dynamics import obstacle_futures
 from ..normal import standard_normal
+from ..validation import floats
 from .base import Prediction, Predictor, register_predictor
 
 
@@ -41,7 +42,7 @@ def check_obstacle_model(obstacle_model, name="prior"):
         raise ValueError(
             f"prediction {name!r} needs obstacle_model (v_mean, v_std, omega_mean, omega_std)"
         )
-    model = np.asarray(obstacle_model, dtype=float)
+    model = floats("obstacle_model", obstacle_model)
     if model.shape != (4,) or not np.isfinite(model).all() or model[1] < 0 or model[3] < 0:
         raise ValueError(
             f"obstacle_model must be (4,) finite v_mean, v_std >= 0, omega_mean, "

@@ -11,7 +11,8 @@ from dcmppi.render.plots import controller_time_figure, failure_figure, paths_fi
 
 
 def report_plots(rows: list[dict], exp, out: Path) -> list[str]:
-    """Write failure_rates.png, controller_time.png and paths.png; return their names.
+    """Write failure_rates.png, controller_time.png and paths.png (the paths of the rows that
+    finished in one environment, re-run; none without such rows); return their names.
 
     exp: the `dcmppi.bench.experiments.Experiment` of the rows (row order, paper figures)."""
     labels = row_order({r["label"] for r in rows}, [row.label for row in exp.rows])
@@ -24,12 +25,25 @@ def report_plots(rows: list[dict], exp, out: Path) -> list[str]:
     times = {c: [r["ctrl_ms_mean"] for r in ok if r["label"] == c] for c in labels}
     save_figure(controller_time_figure(times), out / "controller_time.png")
 
-    noise = noises[0]
-    index = min(r["env_index"] for r in rows if r["noise"] == noise)
-    observation, paths = episode_paths(exp, index, noise, labels)
+    if not ok:
+        return ["failure_rates.png", "controller_time.png"]
+    noise, index, rerun = paths_environment(ok, labels)
+    observation, paths = episode_paths(exp, index, noise, rerun)
     title = f"{exp.name} environment {index}, noise {noise}"
     save_figure(paths_figure(observation, paths, title), out / "paths.png")
     return ["failure_rates.png", "controller_time.png", "paths.png"]
+
+
+def paths_environment(ok: list[dict], labels) -> tuple[str, int, list[str]]:
+    """The noise profile and environment index whose paths a report draws, and the rows (in
+    the order of `labels`) that finished there (status "ok": an episode that raised or timed out
+    is not re-run): the environment where most rows finished, then the first noise profile and
+    the lowest index. ok: finished rows (at least one)."""
+    finished = {}
+    for r in ok:
+        finished.setdefault((r["noise"], r["env_index"]), set()).add(r["label"])
+    noise, index = min(finished, key=lambda k: (-len(finished[k]), noise_order(k[0]), *k))
+    return noise, index, [c for c in labels if c in finished[noise, index]]
 
 
 def episode_paths(exp, index: int, noise: str, labels) -> tuple[dict, dict]:

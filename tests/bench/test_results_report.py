@@ -444,3 +444,24 @@ def test_the_gallery_is_linked_beside_the_rows(tmp_path, monkeypatch):
     md = (tmp_path / "out" / "report.md").read_text()
     line = next(x for x in md.splitlines() if x.startswith("| none | mppi |"))
     assert line.endswith("| [1 collision](gallery/mppi-1.gif) |")
+
+
+def test_the_paths_plot_reruns_only_episodes_that_finished():
+    """An episode that raised or timed out in environment 0 is not re-run for paths.png (it
+    would raise or hang again in the report's process): the plot takes the environment where
+    most rows finished, then the first noise profile and the lowest index."""
+    from dcmppi.bench.plots import paths_environment
+
+    def ok(noise, label, index):
+        return {"noise": noise, "label": label, "env_index": index, "status": "ok"}
+
+    labels = ["mppi", "tube", "clustered"]
+    rows = [ok("none", "mppi", 0), ok("none", "clustered", 0)]  # tube's episode 0 errored
+    rows += [ok("none", c, 1) for c in labels] + [ok("control", c, 0) for c in labels]
+    assert paths_environment(rows, labels) == ("none", 1, labels)
+    assert paths_environment(rows[:2], labels) == ("none", 0, ["mppi", "clustered"])
+    assert paths_environment([ok("process", "tube", 3), ok("control", "tube", 5)], labels) == (
+        "control",
+        5,
+        ["tube"],
+    )

@@ -54,7 +54,9 @@ def compare(old_paths, new_paths) -> list[Comparison]:
     """The comparisons of every (noise, label) the two sides share, in the experiment's order.
 
     old_paths, new_paths: a database path or a list of them (shards of one side). Raises
-    ValueError (one line) when they hold different experiments or seeds, or share no episode.
+    ValueError (one line) when they hold different experiments, configurations (task, seeds,
+    task and controller parameters, a compared row's controller and parameters), or share no
+    episode.
     """
     old, new = load(old_paths), load(new_paths)
     if old.exp.name != new.exp.name:
@@ -62,6 +64,15 @@ def compare(old_paths, new_paths) -> list[Comparison]:
             f"the old databases hold experiment {old.exp.name!r} and the new {new.exp.name!r}; "
             "compare runs of one experiment"
         )
+    for field in ("task", "base_seed", "env_param", "task_params", "controller_params"):
+        a, b = getattr(old.exp, field), getattr(new.exp, field)
+        if a != b:
+            raise ValueError(
+                f"the old databases ran {field} {a!r} and the new {b!r}: the rule pairs two codes "
+                "on the same episodes; run both with the same configuration"
+            )
+    rows_old = {row.label: (row.controller, row.params) for row in old.exp.rows}
+    rows_new = {row.label: (row.controller, row.params) for row in new.exp.rows}
     done = {(r["noise"], r["label"], r["env_index"]): r for r in new.rows if r["status"] == "ok"}
     groups: dict[tuple[str, str], list[tuple[dict, dict]]] = {}
     for a in old.rows:
@@ -77,6 +88,13 @@ def compare(old_paths, new_paths) -> list[Comparison]:
         groups.setdefault(key[:2], []).append((a, b))
     if not groups:
         raise ValueError("the old and the new databases share no finished episode")
+    for label in sorted({label for _, label in groups}):
+        if rows_old.get(label) != rows_new.get(label):
+            raise ValueError(
+                f"row {label!r} ran {rows_old.get(label)} in the old databases and "
+                f"{rows_new.get(label)} in the new (controller, parameters): run both with the "
+                "same rows"
+            )
     rows = [row.label for row in old.exp.rows]
     out = []
     order = sorted(

@@ -1,5 +1,7 @@
 """`dcmppi outcomes`: old against new code on paired episodes (synthetic rows)."""
 
+import dataclasses
+
 import pytest
 
 from dcmppi.bench.experiments import load_experiment
@@ -9,10 +11,15 @@ from dcmppi.bench.runner import EpisodeSpec
 from dcmppi.cli import main
 
 
-def _db(path, collided, seed=0, experiment="static", failed=()):
+def _db(path, collided, seed=0, experiment="static", failed=(), task_params=None, K=None):
     """A database of row mppi (noise none): environment i collided when i is in `collided`,
-    timed out when in `failed`."""
+    timed out when in `failed`; with task_params or the row's K changed."""
     exp = load_experiment(experiment).select(len(collided) + 60, ("mppi",), ("none",))
+    if task_params is not None:
+        exp = dataclasses.replace(exp, task_params=task_params)
+    if K is not None:
+        rows = tuple(dataclasses.replace(r, params={**r.params, "K": K}) for r in exp.rows)
+        exp = dataclasses.replace(exp, rows=rows)
     db = ResultsDB(path, exp.config())
     db.begin_run(exp.to_dict())
     for i in range(len(collided) + 60):
@@ -73,6 +80,17 @@ def test_other_seeds_or_experiments_are_refused(tmp_path):
         compare(old, _db(tmp_path / "seeds.db", [False] * 3, seed=7))
     with pytest.raises(ValueError, match="experiment 'static' and the new 'dynamic'"):
         compare(old, _db(tmp_path / "dyn.db", [False] * 3, experiment="dynamic"))
+
+
+def test_other_configurations_are_refused(tmp_path):
+    """The rule pairs two codes on the same episodes: databases run with other task or row
+    parameters are not paired, even with the same seeds."""
+    old = _db(tmp_path / "old.db", [False] * 3)
+    other = _db(tmp_path / "task.db", [False] * 3, task_params={"time_limit": 3.0})
+    with pytest.raises(ValueError, match="ran task_params .* and the new .*time_limit"):
+        compare(old, other)
+    with pytest.raises(ValueError, match="row 'mppi' ran .*'K': 64"):
+        compare(old, _db(tmp_path / "row.db", [False] * 3, K=64))
 
 
 def test_databases_without_a_shared_finished_episode_are_refused(tmp_path):

@@ -26,7 +26,8 @@ _RESERVED = {
 
 
 def _key_values(pairs: list[str], flag: str) -> dict:
-    """Parse NAME=VALUE pairs; VALUE is read as JSON when it parses, else as a string."""
+    """Parse NAME=VALUE pairs; VALUE is read as JSON when it parses, else as a string; numbers
+    must be finite."""
     out = {}
     for pair in pairs or []:
         name, sep, value = pair.partition("=")
@@ -41,6 +42,10 @@ def _key_values(pairs: list[str], flag: str) -> dict:
             out[name] = json.loads(value)
         except json.JSONDecodeError:
             out[name] = value
+        try:  # JSON's NaN, Infinity and 1e999 parse, but no record or experiment file holds them
+            json.dumps(out[name], allow_nan=False)
+        except ValueError:
+            raise ValueError(f"{flag} {name}={value}: give finite numbers") from None
     return out
 
 

@@ -144,6 +144,8 @@ class ResultsDB:
         self._copy = None  # a temporary copy a read-only WAL database is read from
         if config is None and not self.path.exists():
             raise FileNotFoundError(f"{self.path}: no results database; run `dcmppi bench` first")
+        if self.path.is_dir():
+            raise IsADirectoryError(f"{self.path}: a directory; --db takes a database file's path")
         self._db = None
         try:
             if config is None:  # reading: never create or convert anything
@@ -347,7 +349,7 @@ class ResultsDB:
             found = db.execute(f"SELECT status, params FROM episodes WHERE {where}", key).fetchone()
             if found is not None:
                 status, params = found
-                if params != row["params"]:
+                if json.loads(params) != json.loads(row["params"]):  # 1 and 1.0 alike
                     changed = _changed(json.loads(params), json.loads(row["params"]))
                     raise ConfigMismatch(
                         f"{self.path}: episode {noise}/{label}/{index} is already recorded with "

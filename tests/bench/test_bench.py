@@ -200,6 +200,8 @@ def test_report_numbers_match_the_rows(tmp_path):
         (["run", "--task", "nope", "--controller", "mppi"], "unknown task"),
         (["run", "--task", "blocked", "--controller", "fancy"], "unknown controller"),
         (["bench", "--param", "K"], "NAME=VALUE"),
+        (["bench", "--episodes", "1", "--param", "gain=NaN"], "gain=NaN: give finite numbers"),
+        (["bench", "--task-param", "time_limit=1e999"], "time_limit=1e999: give finite numbers"),
         (["bench", "--episodes", "1", "--param", "K=-1"], "K must be > 0"),
         (["bench", "--episodes", "1", "--param", "seed=3"], "use --seed"),
         (["bench", "--episodes", "1", "--task-param", "noise=process"], "use --noise"),
@@ -214,6 +216,11 @@ def test_bad_input_gets_a_clear_error(argv, message, capsys, tmp_path):
     assert cli.main([*argv, *(["--db", str(db)] if argv[0] == "bench" else [])]) == 2
     assert message in capsys.readouterr().err
     assert not db.exists()
+
+
+def test_a_directory_for_a_database_is_refused_by_the_cli(tmp_path, capsys):
+    assert cli.main(["report", "--db", str(tmp_path), "--out", str(tmp_path / "o")]) == 2
+    assert f"{tmp_path}: a directory; --db takes a database file's path" in capsys.readouterr().err
 
 
 def test_unreadable_database_is_refused_by_the_cli(tmp_path, capsys):

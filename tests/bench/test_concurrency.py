@@ -82,6 +82,11 @@ def test_an_episode_recorded_with_other_params_is_an_error_not_dropped(tmp_path)
         ("none", "mppi", 0), EpisodeSpec("forest", "mppi", controller_params={"K": 1}), RESULT
     )
     assert len(second.rows()) == 1
+    # an error row retried with 1.0 for 1 (equal numbers, as the configuration check takes them)
+    key, error = ("none", "mppi", 1), {"error": "x"}
+    first.record(key, EpisodeSpec("forest", "mppi", controller_params={"gain": 1}), error)
+    second.record(key, EpisodeSpec("forest", "mppi", controller_params={"gain": 1.0}), RESULT)
+    assert [r["status"] for r in second.rows() if r["env_index"] == 1] == ["ok"]
     first.close()
     second.close()
 

@@ -110,6 +110,14 @@ def test_keys_specs_and_the_configuration():
     assert exp.with_params({}, {"K": 100}).config() != exp.config()
 
 
+def test_repeated_rows_and_noise_profiles_run_once():
+    """--controllers mppi,mppi and --noise none,none: each once (a repeated profile used to run
+    every episode twice and store an experiment that the report refused)."""
+    exp = load_experiment("static").select(2, ("mppi", "mppi"), ("none", "control", "none"))
+    assert exp.labels == ("mppi",) and exp.noises == ("none", "control")
+    assert len(list(exp.specs())) == 2 * 2
+
+
 def test_a_controller_named_instead_of_a_label_becomes_a_row_of_its_own():
     exp = load_experiment("static").select(rows=("clustered", "dc"))
     assert exp.labels == ("clustered", "dc")

@@ -216,7 +216,7 @@ class Experiment:
                     f"unknown noise profile(s) {', '.join(bad) or '(none given)'}; "
                     f"valid: {', '.join(NOISE_PROFILES)}"
                 )
-            exp = dataclasses.replace(exp, noises=tuple(noises))
+            exp = dataclasses.replace(exp, noises=tuple(dict.fromkeys(noises)))
         return exp
 
     def with_params(self, task_params: dict, controller_params: dict) -> Experiment:

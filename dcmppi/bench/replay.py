@@ -225,9 +225,10 @@ def _paths(db_paths) -> list[Path]:
 
 
 def _find(paths, label, env_index, noise) -> tuple[dict, dict, str | None]:
-    """The row (noise, label, env_index) of the first database holding it, its config and the
-    kernels its run recorded (None: not recorded)."""
-    held = set()
+    """The row (noise, label, env_index) of the first database holding it finished (else the first
+    holding it at all, as the report merges shards), its config and the kernels its run recorded
+    (None: not recorded)."""
+    held, first = set(), None
     for path in paths:
         db = ResultsDB(path)
         try:
@@ -248,9 +249,13 @@ def _find(paths, label, env_index, noise) -> tuple[dict, dict, str | None]:
                 found = db.row(rows[0]["noise"], label, env_index)
                 run = next((r for r in db.runs() if r["run_id"] == found.get("run_id")), None)
                 recorded_on = ((run or {}).get("provenance") or {}).get("kernels")
-                return found, db.config, recorded_on
+                if found["status"] == "ok":
+                    return found, db.config, recorded_on
+                first = first or (found, db.config, recorded_on)
         finally:
             db.close()
+    if first is not None:
+        return first
     where = ", ".join(str(p) for p in paths)
     have = "; ".join(f"{lab} (noise {noi})" for noi, lab in sorted(held)) or "no rows"
     raise ValueError(

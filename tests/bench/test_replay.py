@@ -142,6 +142,18 @@ def test_a_worker_processs_end_is_named_not_rerun(tmp_path):
     assert "recorded as 'worker died (signal 9)', which only a worker process shows" in r.message
 
 
+def test_replay_takes_the_finished_row_of_several_databases(tmp_path):
+    """An episode recorded as an error in one shard and finished in another: replay takes the
+    finished one, as the report does, whichever database comes first."""
+    errored, finished = tmp_path / "a.db", tmp_path / "b.db"
+    record(errored, "blocked")
+    record(finished, "blocked")
+    _tamper(errored, "UPDATE episodes SET status = 'error', error = 'worker died (signal 9)'")
+    for paths in ([errored, finished], [finished, errored]):
+        assert rp.replay(paths, "mppi", 0).reproduced
+    assert not rp.replay([errored], "mppi", 0).reproduced
+
+
 def test_replay_names_what_the_databases_hold(tmp_path):
     db = tmp_path / "r.db"
     record(db, "blocked", rows=("mppi", "dc"))

@@ -275,6 +275,8 @@ def cmd_bench(args) -> int:
     shard = _shard(args.shard)
     if args.workers < 1:
         raise ValueError(f"--workers must be >= 1, got {args.workers}")
+    if args.ray_address and args.executor != "ray":
+        raise ValueError("--ray-address is for Ray's workers: add --executor ray")
     if args.episode_timeout is not None and not args.episode_timeout > 0:
         raise ValueError(f"--episode-timeout must be > 0 seconds, got {args.episode_timeout}")
     # one environment's episodes hold every row and noise; the others are made as they run

@@ -152,10 +152,14 @@ def summary(found: dict[int, Reach], rows=()) -> str:
     labels = sorted({r["label"] for r in rows})
     for label in labels:
         mine = [r for r in rows if r["label"] == label and r["env_index"] in found]
-        hit = [r for r in mine if r["status"] == "ok" and r["collision"]]
+        ended = [r for r in mine if r["status"] == "ok"]  # errors have no outcome
+        hit = [r for r in ended if r["collision"]]
         forced = sum(found[r["env_index"]].unavoidable for r in hit)
+        errors = (
+            f" ({len(mine) - len(ended)} more ended in an error)" if len(ended) < len(mine) else ""
+        )
         lines.append(
-            f"  {label}: {len(hit)} of {len(mine)} episodes collided, {forced} of them where "
-            f"every controller collides, {len(hit) - forced} avoidable"
+            f"  {label}: {len(hit)} of {len(ended)} episodes collided{errors}, {forced} of them "
+            f"where every controller collides, {len(hit) - forced} avoidable"
         )
     return "\n".join(lines)

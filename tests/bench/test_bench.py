@@ -197,6 +197,7 @@ def test_report_numbers_match_the_rows(tmp_path):
         (["bench", "--noise", "loud"], "unknown noise"),
         (["bench", "--episodes", "0"], "--episodes must be >= 1"),
         (["bench", "--episodes", "1", "--workers", "0"], "--workers must be >= 1"),
+        (["bench", "--ray-address", "auto"], "--ray-address is for Ray's workers: add --executor"),
         (["run", "--task", "nope", "--controller", "mppi"], "unknown task"),
         (["run", "--task", "blocked", "--controller", "fancy"], "unknown controller"),
         (["bench", "--param", "K"], "NAME=VALUE"),

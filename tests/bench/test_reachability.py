@@ -98,3 +98,22 @@ def test_a_given_prediction_gets_the_true_futures_of_blind_pedestrians():
 def test_a_given_prediction_is_refused_where_pedestrians_react():
     with pytest.raises(ValueError, match="prediction .given. .the true futures. needs obstacles"):
         Episode(_given("corridor-visible"))
+
+
+def test_the_summary_counts_collisions_among_finished_episodes():
+    """An episode that ended in an error has no outcome: it is not among the episodes counted."""
+    from dcmppi.bench.reachability import Reach, summary
+
+    found = {
+        0: Reach(True, False, 5.0, 0.0),
+        1: Reach(False, True, 2.0, 9.0),
+        2: Reach(True, False, 6.0, 0.0),
+    }
+    rows = [
+        {"label": "dc", "env_index": 0, "status": "ok", "collision": False},
+        {"label": "dc", "env_index": 1, "status": "ok", "collision": True},
+        {"label": "dc", "env_index": 2, "status": "error", "collision": None},
+    ]
+    text = summary(found, rows)
+    assert "2 solvable by the ideal robot" in text
+    assert "dc: 1 of 2 episodes collided (1 more ended in an error), 1 of them where every" in text

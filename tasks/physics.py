@@ -240,9 +240,18 @@ class Physics(dm_mujoco.Physics):
         floor = m.geom("floor").id
         m.geom_pos[floor, :2] = centre
         m.geom_size[floor, :2] = 0.5 * extent + 20.0
+        m.cam_pos[m.camera("top").id, :2] = centre
+        self._view_extent = extent
+        self.fit_top_camera(16, 9)
+
+    def fit_top_camera(self, width, height):
+        """Sets the top camera's height so that the map (and 2 m around it) fills a frame of
+        width x height (any units) (dcmppi.render sets it for each frame's size)."""
+        m = self._m
         cam = m.camera("top").id
         half = np.tan(np.deg2rad(m.cam_fovy[cam]) / 2.0)
-        m.cam_pos[cam] = [*centre, max(extent[1], extent[0] * 9.0 / 16.0) / (2.0 * half)]
+        extent = self._view_extent
+        m.cam_pos[cam, 2] = max(extent[1], extent[0] * height / width) / (2.0 * half)
 
     # Episode set-up -------------------------------------------------------------------------
 

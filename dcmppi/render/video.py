@@ -309,6 +309,8 @@ class Renderer:
                 raise RuntimeError("the scene camera needs look_at(region) first")
             view = self._scene_camera
         else:
+            if camera == "top" and hasattr(physics, "fit_top_camera"):  # the whole map
+                physics.fit_top_camera(self._rect.width, self._rect.height)
             self._camera.fixedcamid = self._model.camera(_CAMERA_IN_MODEL.get(camera, camera)).id
             view = self._camera
         mujoco.mjv_updateScene(

@@ -124,6 +124,22 @@ def test_a_backend_without_its_library_ends_in_one_line_naming_the_package(tmp_p
     assert not (tmp_path / "clip.mp4").exists()
 
 
+@pytest.mark.parametrize(
+    "value, out", [("EGL", "2 frames"), ("bogus", "MUJOCO_GL=bogus is no backend: set egl")]
+)
+def test_mujoco_gl_is_taken_in_any_case_and_a_wrong_one_named(value, out, tmp_path):
+    """dm_control takes lower case only: EGL renders as egl; a value that names no backend
+    leaves the simulation working and ends a video in one line."""
+    clip = tmp_path / "clip.mp4"
+    run = subprocess.run(
+        [sys.executable, "-m", "dcmppi.cli", "run", "--task", "blocked", "--controller", "mppi",
+         "--param", "K=16", "--task-param", "time_limit=0.1", "--video", str(clip)],
+        env={**os.environ, "MUJOCO_GL": value}, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert out in run.stdout + run.stderr, run.stderr
+    assert run.returncode == (0 if value == "EGL" else 2) and clip.exists() == (value == "EGL")
+
+
 def test_importing_dcmppi_does_not_import_mujoco():
     code = "import sys, dcmppi; assert not {'mujoco', 'dcmppi.render.video'} & set(sys.modules)"
     subprocess.run([sys.executable, "-c", code], check=True)
@@ -132,6 +148,26 @@ def test_importing_dcmppi_does_not_import_mujoco():
 def _pixels(frame, rgb, tol=40):
     """How many pixels of `frame` are within `tol` of the colour rgb (0-255)."""
     return int((np.abs(frame.astype(int) - rgb).max(axis=-1) < tol).sum())
+
+
+@pytest.mark.parametrize("size", [(640, 360), (640, 480), (320, 240), (360, 640)])
+def test_the_top_camera_shows_the_whole_map_at_any_frame_size(size):
+    """The map's corners project inside the frame, whatever its aspect (the camera's height was
+    fitted to 16:9 only: a 4:3 tile cut the corridor's ends off)."""
+    env = tasks.load("corridor", {"random": 0})
+    env.reset()
+    width, height = size
+    renderer = video.Renderer(env.physics.model.ptr, width, height)
+    renderer.render(env.physics, "top")
+    m = env.physics.model
+    cam = m.camera("top").id
+    scale = (height / 2) / (m.cam_pos[cam, 2] * np.tan(np.deg2rad(m.cam_fovy[cam]) / 2))  # px/m
+    xmin, ymin, xmax, ymax = env.task.world.map_bounds
+    for x, y in ((xmin, ymin), (xmax, ymax)):
+        px = width / 2 + (x - m.cam_pos[cam, 0]) * scale
+        py = height / 2 - (y - m.cam_pos[cam, 1]) * scale
+        assert 0 < px < width and 0 < py < height
+    assert min(width / ((xmax - xmin) * scale), height / ((ymax - ymin) * scale)) < 1.5  # fills it
 
 
 def test_scene_camera_frames_robot_and_obstacle_much_larger_than_top():

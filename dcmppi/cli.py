@@ -204,9 +204,9 @@ def cmd_figure(args) -> int:
 
     import numpy as np
 
-    from dcmppi.bench.runner import EpisodeSpec, check_specs
+    from dcmppi.bench.runner import EpisodeSpec, check_specs, controller_for
     from dcmppi.bench.snapshot import first_step
-    from dcmppi.render.figures import write_figures
+    from dcmppi.render.figures import require_diagnostics, write_figures
 
     controllers = _csv(args.controllers)
     if not controllers:
@@ -219,7 +219,9 @@ def cmd_figure(args) -> int:
         task_params=_key_values(args.task_param, "--task-param"),
         shared_params=_key_values(args.param, "--param"),
     )
-    check_specs([dataclasses.replace(spec, controller=c) for c in controllers])
+    specs = {c: dataclasses.replace(spec, controller=c) for c in controllers}
+    check_specs(list(specs.values()))
+    require_diagnostics({c: controller_for(s) for c, s in specs.items()})  # before the episode
     observation, runs, _ = first_step(spec, controllers)
     result = write_figures(observation, runs, args.out, f"{spec.task}, seed {spec.seed}")
     for name, action in result["actions"].items():

@@ -101,12 +101,11 @@ def gallery(db_paths, out_dir, n: int, camera: str = "scene") -> dict:
             successes.setdefault(key, row)
         elif len(picks) < n:
             picks.append(row)
-    out = {}
+    out, names = {}, set()
     for key, picks in chosen.items():
         entries = []
         for row in picks + ([successes[key]] if key in successes else []):
-            name = f"{_slug(row['noise'])}-{_slug(row['label'])}-env{row['env_index']}.gif"
-            relative = Path("gallery") / name
+            relative = Path("gallery") / _gif_name(row, names)
             record, config, _ = _find(
                 [source[id(row)]], row["label"], row["env_index"], row["noise"]
             )
@@ -209,6 +208,18 @@ def _message(head, same, lines) -> str:
 
 def _pose(pose) -> str:
     return "({:.6f}, {:.6f}, {:.6f})".format(*(float(v) for v in pose))
+
+
+def _gif_name(row: dict, taken: set) -> str:
+    """A gallery file name for the episode `row`, not in `taken` (which it joins): labels that
+    slug alike ("dc+wide", "dc wide") get one file each."""
+    stem = f"{_slug(row['noise'])}-{_slug(row['label'])}-env{row['env_index']}"
+    name, copy = f"{stem}.gif", 1
+    while name in taken:
+        copy += 1
+        name = f"{stem}-{copy}.gif"
+    taken.add(name)
+    return name
 
 
 def _slug(text: str) -> str:

@@ -33,6 +33,20 @@ def plan_cost(controller, state) -> float:
     return float(J[0])
 
 
+def require_diagnostics(controllers: dict) -> None:
+    """A ValueError naming the controllers {name: controller} that record no sampled rollouts
+    (no dcmppi.control Diagnostics), which the figures draw."""
+    plain = [
+        n for n, c in controllers.items()
+        if not isinstance(getattr(c, "diagnostics", None), Diagnostics)
+    ]  # fmt: skip
+    if plain:
+        raise ValueError(
+            f"figure draws sampled rollouts and their values: {', '.join(plain)} records none "
+            "(subclass dcmppi.Controller to get the diagnostics)"
+        )
+
+
 def write_figures(observation, runs, out_dir, title: str) -> dict:
     """Write values.png and rollouts.png of one planning step.
 
@@ -46,16 +60,7 @@ def write_figures(observation, runs, out_dir, title: str) -> dict:
       {"files": [paths], "actions": {controller: applied control marked in the figure},
        "control": the name of the control on the value plot's axis}.
     """
-    plain = [
-        n
-        for n, (c, _) in runs.items()
-        if not isinstance(getattr(c, "diagnostics", None), Diagnostics)
-    ]
-    if plain:
-        raise ValueError(
-            f"figure draws sampled rollouts and their values: {', '.join(plain)} records none "
-            "(subclass dcmppi.Controller to get the diagnostics)"
-        )
+    require_diagnostics({n: c for n, (c, _) in runs.items()})
     plt = pyplot()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -38,7 +38,7 @@ import numpy as np  # noqa: E402
 _CAMERA_IN_MODEL = {"top": "top", "chase": "robot/chase"}  # the chase camera rides the robot
 SCENE_MARGIN = 3.0  # [m] around what the scene camera frames
 SCENE_CORRIDOR = (5.0, 0.4)  # obstacles within max(5 m, 0.4 x start-goal distance) of the line
-GIF_MAX_FRAMES = 120  # a GIF keeps every ceil(frames / 120)-th frame (and the last)
+GIF_MAX_FRAMES = 120  # a GIF keeps every gif_stride(frames)-th frame and the last, 120 at most
 _OFFSCREEN_BACKENDS = ("egl", "osmesa", "glfw")
 
 
@@ -112,7 +112,8 @@ def check_camera(camera: str) -> None:
 
 
 def check_path(path) -> pathlib.Path:
-    """The video path, or a ValueError naming what is wrong with it (suffix, parent a file)."""
+    """The video path, or a ValueError naming what is wrong with it (suffix, parent a file, a
+    folder or file that cannot be written), before an episode is run for it."""
     path = pathlib.Path(path)
     if path.suffix.lower() not in (".mp4", ".gif"):
         raise ValueError(f"video path must end in .mp4 or .gif, got {path.name!r}")
@@ -123,26 +124,44 @@ def check_path(path) -> pathlib.Path:
                     f"cannot write the video {path}: {parent} is a file, not a folder; "
                     "choose a path in a folder"
                 )
+            try:  # a file can be made there (a read-only folder or file system, /proc, ...)
+                tempfile.TemporaryFile(dir=parent).close()
+            except OSError as e:
+                raise ValueError(
+                    f"cannot write the video {path}: {parent} takes no new file ({e.strerror}); "
+                    "choose another folder"
+                ) from None
             break
     if path.is_dir():
         raise ValueError(f"cannot write the video {path}: it is a folder")
+    if path.exists() and not os.access(path, os.W_OK):
+        raise ValueError(f"cannot write the video {path}: the file is read-only")
     return path
 
 
 def gif_stride(frames: int) -> int:
-    """Every how many frames a GIF of `frames` frames keeps one: at most GIF_MAX_FRAMES."""
-    return max(1, math.ceil(frames / GIF_MAX_FRAMES))
+    """Every how many frames a GIF of `frames` frames keeps one (and the last) so that it
+    keeps at most GIF_MAX_FRAMES."""
+    stride = max(1, math.ceil(frames / GIF_MAX_FRAMES))
+    while gif_frames(frames, stride) > GIF_MAX_FRAMES:
+        stride += 1
+    return stride
+
+
+def gif_frames(frames: int, stride: int) -> int:
+    """The frames a GIF keeps of `frames`: every stride-th from the first, and the last."""
+    return math.ceil(frames / stride) + ((frames - 1) % stride != 0) if frames else 0
 
 
 class VideoWriter:
     """Frames (height, width, 3) uint8 piped straight into ffmpeg: MP4 (H.264) or GIF.
 
     MP4 keeps every frame at `fps`. A GIF keeps every `stride`-th frame and the last one, with
-    stride = ceil(frames / GIF_MAX_FRAMES), played at `fps`: a long episode plays `stride`
-    times faster than real time and its GIF stays near GIF_MAX_FRAMES frames (about 3 MB at
-    480 x 270 for the crowd with the overlay). Since the length is known only at the end,
-    the frames go to a temporary MP4 first, which `close()` converts (ffmpeg with a palette
-    made for the clip) and deletes.
+    stride = gif_stride(frames) (about frames / GIF_MAX_FRAMES), played at `fps`: a long
+    episode plays `stride` times faster than real time and its GIF keeps at most
+    GIF_MAX_FRAMES (about 3 MB at 480 x 270 for the crowd with the overlay). Since the length
+    is known only at the end, the frames go to a temporary MP4 first, which `close()` converts
+    (ffmpeg with a palette made for the clip) and deletes.
 
     Use as a context manager; nothing is buffered, so memory does not grow with the video.
     If the block is interrupted (Ctrl-C) or fails, the file is still finished: a playable
@@ -179,6 +198,12 @@ class VideoWriter:
     def write(self, frame: np.ndarray) -> None:
         try:
             self._writer.send(frame)
+        except OSError as e:  # ffmpeg ended (a full disk, a folder gone): one line
+            self._broken = True
+            raise RuntimeError(
+                f"ffmpeg stopped writing the video {self.path} ({type(e).__name__}: "
+                f"{e.strerror or e}); check the folder and its free space"
+            ) from None
         except BaseException:
             self._broken = True  # ffmpeg was stopped mid-frame: its file is unusable
             raise
@@ -186,12 +211,13 @@ class VideoWriter:
 
     def close(self) -> None:
         """Finish the file (idempotent); a GIF is made from the frames written. A file that
-        ffmpeg could not finish (stopped in the middle of a frame) is removed."""
+        ffmpeg could not finish (stopped in the middle of a frame), or one of no frame (not a
+        video), is removed."""
         if self._writer is None:
             return
         writer, self._writer = self._writer, None
         writer.close()
-        if self._broken:
+        if self._broken or not self.frames:
             self.path.unlink(missing_ok=True)
         if self._gif:
             try:

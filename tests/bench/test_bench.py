@@ -208,6 +208,7 @@ def test_report_numbers_match_the_rows(tmp_path):
         (["bench", "--episodes", "1", "--task-param", "noise=process"], "use --noise"),
         (["run", "--task", "blocked", "--controller", "mppi", "--param", "seed=3"], "use --seed"),
         (["figure", "--task", "blocked", "--controllers", ","], "at least one controller"),
+        (["figure", "--controllers", "user_controllers:Straight,mppi"], "Straight records none"),
     ],
 )
 def test_bad_input_gets_a_clear_error(argv, message, capsys, tmp_path):

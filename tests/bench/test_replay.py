@@ -166,6 +166,13 @@ def test_replay_names_what_the_databases_hold(tmp_path):
         rp.replay([db], "dc", 0)
 
 
+def test_gallery_files_of_labels_that_slug_alike_are_apart():
+    taken = set()
+    rows = [{"noise": "none", "label": label, "env_index": 0} for label in ("dc+wide", "dc wide")]
+    names = [rp._gif_name(row, taken) for row in rows]
+    assert names == ["none-dc_wide-env0.gif", "none-dc_wide-env0-2.gif"]
+
+
 @pytest.mark.slow
 def test_gallery_renders_failures_and_one_success_through_the_replay(tmp_path, capsys):
     db = tmp_path / "r.db"

@@ -84,6 +84,40 @@ def test_bad_arguments(tmp_path):
         video.render_episode(env, lambda ts: [0.0], tmp_path / "clip.mp4", width=101)
     with pytest.raises(ValueError, match="offscreen buffer"):
         video.render_episode(env, lambda ts: [0.0], tmp_path / "clip.mp4", width=4000)
+    with pytest.raises(ValueError, match="offscreen buffer"):
+        video.render_episode(env, lambda ts: [0.0], tmp_path / "clip.mp4", height=1200)
+    assert not (tmp_path / "clip.mp4").exists()  # no frame: no file that is not a video
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux's /proc")
+def test_a_video_path_that_takes_no_file_is_named_before_the_episode(tmp_path, capsys):
+    """/proc takes no new file: one line before anything runs (ffmpeg's broken pipe came at the
+    first frame, with a traceback and the exit status of a crashed controller)."""
+    from dcmppi import cli
+
+    argv = ["run", "--task", "blocked", "--controller", "mppi", "--video", "/proc/clip.mp4"]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert "cannot write the video /proc/clip.mp4: /proc takes no new file" in err
+    assert err.count("\n") == 1
+
+
+def test_ffmpeg_ending_mid_video_is_one_line(tmp_path):
+    writer = video.VideoWriter(tmp_path / "clip.mp4", 64, 48, 10.0)
+    writer.write(np.zeros((48, 64, 3), np.uint8))
+    ffmpeg, writer._writer = writer._writer, Broken()
+    with pytest.raises(RuntimeError, match=r"ffmpeg stopped writing the video .*clip.mp4 \(Broken"):
+        writer.write(np.zeros((48, 64, 3), np.uint8))
+    writer._writer = ffmpeg
+    writer.close()
+    assert writer.frames == 1 and not (tmp_path / "clip.mp4").exists()  # unusable: removed
+
+
+class Broken:
+    """ffmpeg's frame generator after ffmpeg ended."""
+
+    def send(self, frame):
+        raise BrokenPipeError(32, "Broken pipe")
 
 
 def test_broken_backend_gives_one_clear_error(monkeypatch):
@@ -248,6 +282,16 @@ def test_legend_is_drawn_at_the_bottom_left_in_rows_that_fit_the_width():
     assert top > 180 - 40 and left < 10 and right < 320 - 10  # one row at the bottom left
     top, left, right = boxes[160]
     assert top < 180 - 40 and right < 160  # two rows: the labels do not fit one
+
+
+def test_a_gif_keeps_at_most_its_frame_count_with_the_last_frame():
+    """Every stride-th frame and the last: 240 frames at stride 2 would keep 121."""
+    for frames in range(1, 3000):
+        stride = video.gif_stride(frames)
+        kept = set(range(0, frames, stride)) | {frames - 1}
+        assert len(kept) == video.gif_frames(frames, stride) <= video.GIF_MAX_FRAMES
+        assert stride == 1 or video.gif_frames(frames, stride - 1) > video.GIF_MAX_FRAMES
+    assert video.gif_stride(240) == 3
 
 
 def test_long_episode_gif_is_subsampled_to_a_bounded_frame_count(tmp_path):

@@ -176,8 +176,10 @@ def dubins_lqr_gain(c0, c1, b0, b1, b2, q_pos, q_theta, r):
 
 @register("tube")
 class TubeMPPI(MPPI):
-    """Tube-MPPI. Extra args (module docstring): reset_threshold (None: alpha / 2),
-    max_deviation, tracking_position, tracking_heading."""
+    """Tube-MPPI: a nominal and a real solve, LQR tracking of the nominal (module docstring).
+
+    Extra args: reset_threshold (None: alpha / 2), max_deviation, tracking_position,
+    tracking_heading."""
 
     own_params = ("reset_threshold", "max_deviation", "tracking_position", "tracking_heading")
     diagnostics_class = TubeDiagnostics

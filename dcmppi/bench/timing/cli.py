@@ -160,7 +160,7 @@ def main(argv=None):
         return 0
     print(
         f"dcmppi timing: K={info['K']} N={info['N']} P={info['P']}, one thread, {args.steps} steps "
-        f"in blocks of {args.block}"
+        f"in blocks of {min(args.block, args.steps)}"
     )
     header = f"{'case':<21} {'problem':<11} {'median ms':>9} {'p95 ms':>7} {'ratio':>6}"
     print(f"{header}  target")
@@ -220,7 +220,7 @@ def against(args):
         f"dcmppi timing --against pytorch_mppi {v['pytorch_mppi']} (torch {v['torch']}): forest, "
         f"K={s['K']} N={s['N']}, {s['perturbation']} noise, torch and BLAS on one thread, "
         f"{args.steps} steps "
-        f"interleaved in blocks of {args.block}"
+        f"interleaved in blocks of {min(args.block, args.steps)}"
     )
     print(f"{'controller':<24} {'median ms':>9} {'p95 ms':>7}")
     rows = [("mppi (dcmppi)", result["ours"]), ("pytorch_mppi", result["theirs"])]

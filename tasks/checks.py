@@ -26,17 +26,6 @@ def check_range(name, value, low=None, strict=False):
     return lo, hi
 
 
-def check_finite(name, value):
-    """`value` as a finite float, else a ValueError naming `name`."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        number = np.nan
-    if not np.isfinite(number):
-        raise ValueError(f"{name} must be a finite number, got {value!r}")
-    return number
-
-
 def check_flag(name, value):
     """`value` if it is True or False, else a ValueError naming `name`."""
     if not isinstance(value, (bool, np.bool_)):

@@ -8,10 +8,9 @@ rollout clustering is for.
 import numpy as np
 
 from dcmppi.control.dynamics import wrap_angle
-from dcmppi.control.validation import positive
+from dcmppi.control.validation import finite, positive
 
 from .arcs import dubins_pose
-from .checks import check_finite
 from .navigation import Navigation
 from .world_base import make_world, map_bounds
 from .worlds import MOVING_OBSTACLE_RADIUS
@@ -69,9 +68,9 @@ class Crossing(Navigation):
         self.meet_fraction = positive("meet_fraction", meet_fraction)
         if self.meet_fraction > 1.0:
             raise ValueError(f"meet_fraction must be in (0, 1], got {meet_fraction}")
-        self.approach_angle = check_finite("approach_angle", approach_angle)
+        self.approach_angle = finite("approach_angle", approach_angle)
         self.obstacle_speed = positive("obstacle_speed", obstacle_speed)
-        self.obstacle_turn_rate = check_finite("obstacle_turn_rate", obstacle_turn_rate)
+        self.obstacle_turn_rate = finite("obstacle_turn_rate", obstacle_turn_rate)
         self.obstacle_radius = positive("obstacle_radius", obstacle_radius)
         self.num_moving = 1
 

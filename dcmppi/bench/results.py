@@ -349,8 +349,9 @@ class ResultsDB:
             found = db.execute(f"SELECT status, params FROM episodes WHERE {where}", key).fetchone()
             if found is not None:
                 status, params = found
-                if json.loads(params) != json.loads(row["params"]):  # 1 and 1.0 alike
-                    changed = _changed(json.loads(params), json.loads(row["params"]))
+                before, now = json.loads(params), json.loads(row["params"])
+                if before != now:  # values: 1 and 1.0 alike
+                    changed = _changed(before, now)
                     raise ConfigMismatch(
                         f"{self.path}: episode {noise}/{label}/{index} is already recorded with "
                         f"other parameters ({changed}): another run wrote this database with "

@@ -359,7 +359,7 @@ class Controller:
         ranges = parts(K, self.threads) if split else ((0, K),)
         # the pass that bounds the controls is ours (not a replaced controls()); then it sums the
         # importance term over the steps too, unless importance() is replaced
-        ours = in_pass or len(ranges) > 1 or self._own("controls")
+        ours = self._own("controls")  # so whenever the draws are in the pass or split
         fused = ours and self._own("importance")
         products = np.zeros((self.nu, K)) if fused else NO_SUMS
         if ours:

@@ -22,8 +22,6 @@ Units (one rule for every experiment and agent, never tuned on a table):
   units over 51 states) never decide it.
 """
 
-import numbers
-
 import numba
 import numpy as np
 
@@ -34,7 +32,7 @@ from .diagnostics import TubeDiagnostics
 from .dynamics import wrap_angle
 from .mppi import MPPI, effective_sample_size, mppi_update
 from .registry import register
-from .validation import positive
+from .validation import finite, positive
 
 MAX_DEVIATION = 1.0  # [m]
 TRACKING_POSITION = 0.1  # [m] largest acceptable real-to-nominal position error (Bryson)
@@ -195,9 +193,7 @@ class TubeMPPI(MPPI):
     ):
         super().__init__(**params)
         t = 0.5 * self.alpha if reset_threshold is None else reset_threshold
-        if isinstance(t, bool) or not isinstance(t, numbers.Real) or not np.isfinite(t):
-            raise ValueError(f"reset_threshold must be a finite number; got {reset_threshold!r}")
-        self.reset_threshold = float(t)
+        self.reset_threshold = finite("reset_threshold", t)
         self.max_deviation = positive("max_deviation", max_deviation)
         self.tracking_position = positive("tracking_position", tracking_position)
         self.tracking_heading = positive("tracking_heading", tracking_heading)

@@ -19,6 +19,13 @@ def positive(name, value, integer=False, allow_zero=False):
     return int(value) if integer else float(value)
 
 
+def finite(name, value):
+    """`value` as a float, or a ValueError naming `name` when it is not a finite number."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+        raise ValueError(f"{name} must be a finite number; got {value!r}")
+    return float(value)
+
+
 def floats(name, value):
     """`value` as a float64 array, or a ValueError naming `name` when it holds no numbers."""
     try:

@@ -43,7 +43,7 @@ if not (Path(__file__).parent / "tasks").is_dir():
 _CONTROL_NAMES = ("Controller", "Diagnostics", "controller_names", "make_controller")
 
 if TYPE_CHECKING:
-    from .control import Controller, Diagnostics, controller_names, make_controller
+    from dcmppi.control import Controller, Diagnostics, controller_names, make_controller
 
 
 def __getattr__(name):

@@ -15,7 +15,7 @@ import sys
 import textwrap
 import traceback
 
-from dcmppi.control._malloc import tune_malloc
+from dcmppi.control.kernels._malloc import tune_malloc
 from dcmppi.render import CAMERAS
 
 # names that other flags set for every episode (a parameter would silently override them)
@@ -62,7 +62,7 @@ def cmd_tasks(args) -> int:
 
 
 def cmd_controllers(args) -> int:
-    from dcmppi.bench.plugins import ENTRY_POINT_GROUP, entry_points
+    from dcmppi.bench.episodes.plugins import ENTRY_POINT_GROUP, entry_points
     from dcmppi.control import controller_class, controller_names
     from dcmppi.control.agents import agent_class, agent_names
     from dcmppi.control.predictors import predictor_class, predictor_names
@@ -88,7 +88,7 @@ def _summary(cls) -> str:
 
 
 def cmd_run(args) -> int:
-    from dcmppi.bench.runner import EpisodeSpec, check_specs, run_episode
+    from dcmppi.bench.episodes.runner import EpisodeSpec, check_specs, run_episode
 
     spec = EpisodeSpec(
         task=args.task,
@@ -101,7 +101,7 @@ def cmd_run(args) -> int:
     check_specs([spec])
     with _episode_errors():
         if args.video:
-            from dcmppi.bench.runner import Episode
+            from dcmppi.bench.episodes.runner import Episode
             from dcmppi.render.recording import record_episode
             from dcmppi.render.video import check_path
 
@@ -161,7 +161,7 @@ def _episode_errors():
 
 
 def cmd_compare(args) -> int:
-    from dcmppi.bench.runner import Episode, EpisodeSpec, check_specs
+    from dcmppi.bench.episodes.runner import Episode, EpisodeSpec, check_specs
     from dcmppi.render.recording import compare
     from dcmppi.render.video import check_path
 
@@ -204,8 +204,8 @@ def cmd_figure(args) -> int:
 
     import numpy as np
 
-    from dcmppi.bench.runner import EpisodeSpec, check_specs, controller_for
-    from dcmppi.bench.snapshot import first_step
+    from dcmppi.bench.episodes.runner import EpisodeSpec, check_specs, controller_for
+    from dcmppi.bench.episodes.snapshot import first_step
     from dcmppi.render.figures import require_diagnostics, write_figures
 
     controllers = _csv(args.controllers)
@@ -262,11 +262,11 @@ def cmd_bench(args) -> int:
     import time
     from pathlib import Path
 
-    from dcmppi.bench.execution import run_experiment
+    from dcmppi.bench.episodes.runner import check_specs
     from dcmppi.bench.experiments import load_experiment
-    from dcmppi.bench.provenance import collect
-    from dcmppi.bench.results import ResultsDB
-    from dcmppi.bench.runner import check_specs
+    from dcmppi.bench.results.database import ResultsDB
+    from dcmppi.bench.results.provenance import collect
+    from dcmppi.bench.runs.execution import run_experiment
 
     exp = load_experiment(args.experiment).select(
         args.episodes, _csv(args.controllers), _csv(args.noise)
@@ -347,7 +347,7 @@ def cmd_bench(args) -> int:
 
 
 def cmd_report(args) -> int:
-    from dcmppi.bench.report import write_report
+    from dcmppi.bench.reports.report import write_report
 
     if args.gallery < 0:
         raise ValueError(f"--gallery must be >= 0, got {args.gallery}")
@@ -358,7 +358,7 @@ def cmd_report(args) -> int:
 
 
 def cmd_replay(args) -> int:
-    from dcmppi.bench.replay import replay
+    from dcmppi.bench.runs.replay import replay
 
     if args.video:
         from dcmppi.render.video import check_path
@@ -371,7 +371,7 @@ def cmd_replay(args) -> int:
 
 
 def cmd_outcomes(args) -> int:
-    from dcmppi.bench.outcomes import compare, joint, table
+    from dcmppi.bench.reports.outcomes import compare, joint, table
 
     comparisons = compare(args.old, args.new)
     print(table(comparisons))
@@ -383,9 +383,9 @@ def cmd_outcomes(args) -> int:
 
 
 def cmd_reach(args) -> int:
+    from dcmppi.bench.episodes.reachability import summary, survey
     from dcmppi.bench.experiments import load_experiment
-    from dcmppi.bench.reachability import summary, survey
-    from dcmppi.bench.results import ResultsDB
+    from dcmppi.bench.results.database import ResultsDB
 
     exp = load_experiment(args.experiment).select(args.episodes, None, None)
     exp = exp.with_params(_key_values(args.task_param, "--task-param"), {})
@@ -428,8 +428,8 @@ class _Help(argparse.ArgumentDefaultsHelpFormatter):
 def _choices() -> dict[str, str]:
     """The names --help lists: tasks, controllers (built-in and installed), agents, noise
     profiles, experiments."""
+    from dcmppi.bench.episodes.plugins import available_controllers
     from dcmppi.bench.experiments import experiment_names
-    from dcmppi.bench.plugins import available_controllers
     from dcmppi.control.agents import agent_names
     from dcmppi.tasks import NOISE_PROFILES, TASKS
 
@@ -632,8 +632,8 @@ def main(argv: list[str] | None = None) -> int:
     """Run the `dcmppi` command `argv` (default: sys.argv[1:]); returns the exit status.
 
     Every command first tunes glibc's malloc for this process
-    (`dcmppi.control._malloc.tune_malloc`): the controllers' per-step temporaries stay in the
-    heap instead of being faulted in again each step."""
+    (`dcmppi.control.kernels._malloc.tune_malloc`): the controllers' per-step temporaries stay in
+    the heap instead of being faulted in again each step."""
     argv = sys.argv[1:] if argv is None else list(argv)
     tune_malloc()
     if os.getcwd() not in sys.path:  # package.module:ClassName from here, as with python -m

@@ -21,11 +21,11 @@ one module per task family (`forest`, `crowd`, `corridor`, `square`, `two_valley
 `robots` (agent -> actuators), `barn` (BARN's score).
 
 May import MuJoCo, dm_control, numpy, navground and, of the rest of dcmppi, only the robot
-models dcmppi.control.agents (with dcmppi.control.dynamics, their motion), the social force
-dcmppi.control.social (compiled, shared with the `social` predictor), dcmppi.control.defaults
-and dcmppi.control.validation: no controller, nothing of dcmppi.bench or dcmppi.render
-(tests/test_architecture.py). Installed, this folder is the subpackage dcmppi.tasks (see
-dcmppi/__init__.py).
+models dcmppi.control.agents (with dcmppi.control.kernels.dynamics, their motion), the social force
+dcmppi.control.kernels.social (compiled, shared with the `social` predictor),
+dcmppi.control.defaults and dcmppi.control.validation: no controller, nothing of dcmppi.bench or
+dcmppi.render (tests/test_architecture.py). Installed, this folder is the subpackage dcmppi.tasks
+(see dcmppi/__init__.py).
 """
 
 from ._gl import choose_backend

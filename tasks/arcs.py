@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from dcmppi.control.dynamics import wrap_angle
+from dcmppi.control.kernels.dynamics import wrap_angle
 
 
 def dubins_pose(pose, speed, turn_rate, t) -> np.ndarray:

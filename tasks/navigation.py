@@ -15,7 +15,7 @@ from dm_env import specs
 
 from dcmppi.control import defaults
 from dcmppi.control.agents import make_agent
-from dcmppi.control.agents.projection import bound
+from dcmppi.control.kernels.projection import bound
 from dcmppi.control.validation import positive
 
 from . import pedestrians, robots

@@ -3,7 +3,7 @@
 Each pedestrian wants to walk straight to its goal at its preferred speed (the desired velocity)
 and a behaviour turns that into its velocity for the next control period:
 
-    social_force   Helbing & Molnar's social force, dcmppi.control.social (the `social`
+    social_force   Helbing & Molnar's social force, dcmppi.control.kernels.social (the `social`
                    predictor's own model)
     orca, hrvo     navground's ORCA (RVO2's reciprocal velocity obstacles) and HRVO (which
                    ignores walls: worlds with walls refuse it)
@@ -22,8 +22,8 @@ next control period: a new goal, or a respawn somewhere else (the density stays)
 
 import numpy as np
 
-from dcmppi.control import social
-from dcmppi.control.social import MAX_SPEED_FACTOR
+from dcmppi.control.kernels import social
+from dcmppi.control.kernels.social import MAX_SPEED_FACTOR
 
 BEHAVIORS = ("constant", "social_force", "orca", "hrvo", "hl")
 _NAVGROUND = {"orca": "ORCABehavior", "hrvo": "HRVOBehavior", "hl": "HLBehavior"}

@@ -22,7 +22,7 @@ from dm_control.mujoco.wrapper import core
 from dm_control.rl import control
 
 from dcmppi.control import defaults
-from dcmppi.control.libm import cabs, cabs_or_nan, nan_min
+from dcmppi.control.kernels.libm import cabs, cabs_or_nan, nan_min
 
 from . import pedestrians
 from .arcs import DubinsObstacles

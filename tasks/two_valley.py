@@ -7,7 +7,7 @@ rollout clustering is for.
 
 import numpy as np
 
-from dcmppi.control.dynamics import wrap_angle
+from dcmppi.control.kernels.dynamics import wrap_angle
 from dcmppi.control.validation import finite, positive
 
 from .arcs import dubins_pose

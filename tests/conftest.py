@@ -16,7 +16,8 @@ if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
     signal.signal(signal.SIGINT, signal.default_int_handler)
 
 # user_controllers.py, a user's module named in strings ("user_controllers:Straight"): spawned
-# workers inherit this sys.path, Ray's get the folder from dcmppi.bench.plugins.import_roots.
+# workers inherit this sys.path, Ray's get the folder from
+# dcmppi.bench.episodes.plugins.import_roots.
 TESTS = str(pathlib.Path(__file__).resolve().parent)
 if TESTS not in sys.path:
     sys.path.insert(0, TESTS)

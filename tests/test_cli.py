@@ -6,7 +6,7 @@ import sys
 import pytest
 
 from dcmppi import cli
-from dcmppi.bench.results import ResultsDB
+from dcmppi.bench.results.database import ResultsDB
 
 MINE = """
 import sys

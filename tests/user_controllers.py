@@ -6,7 +6,7 @@ on sys.path, spawned workers inherit it, Ray's get it from `plugins.import_roots
 
 import numpy as np
 
-from dcmppi.control.mppi import MPPI
+from dcmppi.control.planners.mppi import MPPI
 
 
 class Straight:

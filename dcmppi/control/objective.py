@@ -13,8 +13,8 @@ frozen obstacles with w = alpha, or P sampled futures per obstacle with w = beta
 
 import numpy as np
 
-from .costs import TrackIndex, goal_distance, static_costs
-from .predictors import Prediction
+from dcmppi.control.kernels.costs import TrackIndex, goal_distance, static_costs
+from dcmppi.control.predictors import Prediction
 
 NO_TRACKS = TrackIndex(np.zeros((0, 1, 2)), np.zeros(0))
 

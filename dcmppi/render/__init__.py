@@ -9,7 +9,7 @@
 
 May import dcmppi.control and dcmppi.tasks; never dcmppi.bench (tests/test_architecture.py
 checks this). The benchmark computes the numbers (summaries, paths, filter errors) and passes
-them in as arrays and dicts; episodes come in as objects (dcmppi.bench.runner.Episode or
+them in as arrays and dicts; episodes come in as objects (dcmppi.bench.episodes.runner.Episode or
 anything with its attributes).
 """
 

@@ -1,6 +1,6 @@
 """The EKF error plot: speed and turn-rate errors of obstacle filters over one episode.
 
-`dcmppi.bench.ekf_plot` runs the episode and hands the errors in.
+`dcmppi.bench.reports.ekf_plot` runs the episode and hands the errors in.
 """
 
 from __future__ import annotations

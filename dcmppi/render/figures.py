@@ -1,7 +1,7 @@
 """The paper's Fig. 2 and Fig. 4 for one control step of a task.
 
 Every controller has planned the same step (same observation, same seed, hence the same K
-perturbations: `dcmppi.bench.snapshot.first_step`); the figures show
+perturbations: `dcmppi.bench.episodes.snapshot.first_step`); the figures show
 
 - `values.png`: the value exp(-(J - min J) / lambda) of each sampled perturbation against
   the perturbation, coloured by DBSCAN cluster (grey: noise, or no clustering), with the
@@ -53,7 +53,7 @@ def write_figures(observation, runs, out_dir, title: str) -> dict:
     Args:
       observation: the task observation every controller planned from.
       runs: {name: (controller, applied action)} after each controller's step, for example
-        from `dcmppi.bench.snapshot.first_step`.
+        from `dcmppi.bench.episodes.snapshot.first_step`.
       out_dir: folder for the PNG files.
       title: what the step is (task and seed), for the figure titles.
     Returns:

@@ -19,7 +19,7 @@ def failure_figure(stats: dict, noises, labels, title: str, paper: dict | None =
 
     Args:
       stats: {(noise, label): {"episodes": int, "failure_pct": float, "failure_ci_pct":
-        (lo, hi)}}, as `dcmppi.bench.stats.summarize` returns; missing or empty groups are
+        (lo, hi)}}, as `dcmppi.bench.results.stats.summarize` returns; missing or empty groups are
         left out.
       noises, labels: the x groups and the bars in each, in drawing order.
       title: the experiment's name.

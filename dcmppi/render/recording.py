@@ -7,9 +7,9 @@ Each tile shows the controller, step, time, noise and outcome at the top left an
 overlay, a colour legend of the overlay's lines at the bottom left.
 
 An episode is any object with `spec`, `env`, `controller`, `time_step`, `done`, `ctrl_s`,
-`step()` and `result()` (dcmppi.bench.runner.Episode): this package drives it, never builds it.
-Frames go straight to the encoder (memory does not grow with the episode); one renderer per
-episode and camera serves all of its frames.
+`step()` and `result()` (dcmppi.bench.episodes.runner.Episode): this package drives it, never
+builds it. Frames go straight to the encoder (memory does not grow with the episode); one renderer
+per episode and camera serves all of its frames.
 """
 
 from __future__ import annotations
@@ -72,7 +72,7 @@ def compare(
     """Run `episodes` in lockstep and write their frames side by side into one video.
 
     Args:
-      episodes: episodes just started (dcmppi.bench.runner.Episode), left to right (usually
+      episodes: episodes just started (dcmppi.bench.episodes.runner.Episode), left to right (usually
         one environment, several controllers).
       path: .mp4 (every frame) or .gif (at most video.GIF_MAX_FRAMES frames, see
         video.VideoWriter).
@@ -82,7 +82,7 @@ def compare(
       overlay: draw rollouts, clusters, plan, trail and obstacle futures.
       legend: with the overlay, a colour legend at the bottom left of each tile.
     Returns:
-      the metrics of each episode (as `dcmppi.bench.runner.run_episode`).
+      the metrics of each episode (as `dcmppi.bench.episodes.runner.run_episode`).
     Raises:
       KeyboardInterrupt: on Ctrl-C, after finishing the video of the frames so far; its
         message says what the file holds.

@@ -17,12 +17,12 @@ import numpy as np
 import pytest
 
 from dcmppi import cli
-from dcmppi.bench.execution import run_all, run_experiment
+from dcmppi.bench.episodes.runner import Episode, EpisodeSpec, run_episode
 from dcmppi.bench.experiments import load_experiment
-from dcmppi.bench.report import write_report
-from dcmppi.bench.results import ResultsDB
-from dcmppi.bench.runner import Episode, EpisodeSpec, run_episode
-from dcmppi.bench.stats import summarize
+from dcmppi.bench.reports.report import write_report
+from dcmppi.bench.results.database import ResultsDB
+from dcmppi.bench.results.stats import summarize
+from dcmppi.bench.runs.execution import run_all, run_experiment
 from dcmppi.control import ClusteredDiagnostics, TubeDiagnostics
 
 SMALL = {"K": 32, "N": 20}
@@ -320,7 +320,7 @@ def test_every_subcommand_lists_its_choices_and_defaults():
 def test_the_cli_and_the_bench_workers_tune_malloc_themselves(monkeypatch):
     """glibc's malloc settings belong to the process: the entry points set them (every
     `dcmppi` command, each pool and Ray worker), not the Controller in a user's program."""
-    from dcmppi.bench import execution
+    from dcmppi.bench.runs import execution
 
     calls = []
     monkeypatch.setattr(cli, "tune_malloc", lambda: calls.append("cli"))

@@ -5,9 +5,9 @@ import threading
 
 import pytest
 
-from dcmppi.bench import results
-from dcmppi.bench.results import ConfigMismatch, ResultsDB
-from dcmppi.bench.runner import EpisodeSpec
+import dcmppi.bench.results.database as results
+from dcmppi.bench.episodes.runner import EpisodeSpec
+from dcmppi.bench.results.database import ConfigMismatch, ResultsDB
 
 BASE = {
     "task": "forest",

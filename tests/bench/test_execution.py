@@ -15,10 +15,10 @@ import tracemalloc
 import pytest
 
 from dcmppi import cli
-from dcmppi.bench.execution import run_all
+from dcmppi.bench.episodes.runner import EpisodeSpec
 from dcmppi.bench.experiments import Experiment
-from dcmppi.bench.results import ResultsDB
-from dcmppi.bench.runner import EpisodeSpec
+from dcmppi.bench.results.database import ResultsDB
+from dcmppi.bench.runs.execution import run_all
 
 CRASHING = '''
 import os, signal, sys, time

@@ -2,13 +2,13 @@
 
 import pytest
 
+from dcmppi.bench.episodes.runner import check_specs
 from dcmppi.bench.experiments import (
     ExperimentError,
     Paper,
     experiment_names,
     load_experiment,
 )
-from dcmppi.bench.runner import check_specs
 
 MINIMAL = 'task = "blocked"\nepisodes = 2\n[[rows]]\ncontroller = "mppi"\n'
 

@@ -12,13 +12,13 @@ import types
 import numpy as np
 import pytest
 
-from dcmppi.bench import metrics
+from dcmppi.bench.episodes import metrics
+from dcmppi.bench.episodes.metrics import FieldMetrics, mean_jerk, spl, time_to_collision
+from dcmppi.bench.episodes.runner import EpisodeSpec, act, run_episode
 from dcmppi.bench.experiments import load_experiment
-from dcmppi.bench.metrics import FieldMetrics, mean_jerk, spl, time_to_collision
-from dcmppi.bench.report import metrics_table, write_report
-from dcmppi.bench.results import FIELD_METRICS, SCHEMA_VERSION, ResultsDB
-from dcmppi.bench.runner import EpisodeSpec, act, run_episode
-from dcmppi.bench.stats import bootstrap_median, field_metrics
+from dcmppi.bench.reports.report import metrics_table, write_report
+from dcmppi.bench.results.database import FIELD_METRICS, SCHEMA_VERSION, ResultsDB
+from dcmppi.bench.results.stats import bootstrap_median, field_metrics
 
 
 def test_time_to_collision_by_hand():
@@ -318,7 +318,7 @@ def test_act_passes_the_moving_velocity_to_controllers_that_take_it():
 def test_planner_gets_the_robot_the_task_simulates():
     """Robot parameters the task sets by default reach the planner too: the corridor's 0.3 m
     robot, the square's 1 m/s top speed; task_params still override them."""
-    from dcmppi.bench.runner import EpisodeSpec, controller_for
+    from dcmppi.bench.episodes.runner import EpisodeSpec, controller_for
 
     corridor = controller_for(EpisodeSpec("corridor", "dc", seed=0))
     assert corridor.robot_radius == 0.3 and corridor.agent.name == "holonomic"

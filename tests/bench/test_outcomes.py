@@ -4,10 +4,10 @@ import dataclasses
 
 import pytest
 
+from dcmppi.bench.episodes.runner import EpisodeSpec
 from dcmppi.bench.experiments import load_experiment
-from dcmppi.bench.outcomes import Comparison, compare, joint, table
-from dcmppi.bench.results import ResultsDB
-from dcmppi.bench.runner import EpisodeSpec
+from dcmppi.bench.reports.outcomes import Comparison, compare, joint, table
+from dcmppi.bench.results.database import ResultsDB
 from dcmppi.cli import main
 
 

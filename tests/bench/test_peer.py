@@ -7,12 +7,13 @@ import sys
 import numpy as np
 import pytest
 
-from dcmppi.bench import peer, timing
+from dcmppi.bench import timing
+from dcmppi.bench.timing import peer
 from dcmppi.bench.timing.loop import ClosedLoop
 from dcmppi.bench.timing.worlds import world
 from dcmppi.control import make_controller
 from dcmppi.control.agents import make_agent
-from dcmppi.control.costs import OccupancyGrid
+from dcmppi.control.kernels.costs import OccupancyGrid
 
 
 def test_against_without_the_packages_prints_the_install_command(monkeypatch, capsys):

@@ -11,8 +11,8 @@ import pytest
 import user_controllers
 
 from dcmppi import cli
-from dcmppi.bench import plugins
-from dcmppi.bench.runner import EpisodeSpec, check_specs, controller_for, run_episode
+from dcmppi.bench.episodes import plugins
+from dcmppi.bench.episodes.runner import EpisodeSpec, check_specs, controller_for, run_episode
 
 SMALL = {"K": 32, "N": 20}
 MODULE = "user_controllers"

@@ -1,15 +1,15 @@
 """Provenance: what a run ran is recorded per run, and a resume under other conditions is
-refused (dcmppi.bench.provenance, ResultsDB.begin_run)."""
+refused (dcmppi.bench.results.provenance, ResultsDB.begin_run)."""
 
 import sqlite3
 import sys
 
 import pytest
 
-from dcmppi.bench import provenance
+from dcmppi.bench.episodes.runner import EpisodeSpec
 from dcmppi.bench.experiments import load_experiment
-from dcmppi.bench.results import SCHEMA_VERSION, ProvenanceMismatch, ResultsDB
-from dcmppi.bench.runner import EpisodeSpec
+from dcmppi.bench.results import provenance
+from dcmppi.bench.results.database import SCHEMA_VERSION, ProvenanceMismatch, ResultsDB
 
 CONFIG = {
     "task": "forest",
@@ -114,7 +114,7 @@ def test_library_versions_and_machine_are_recorded_not_compared(tmp_path):
 
 
 def test_allow_mixed_extends_and_the_report_shows_the_versions_per_row(tmp_path):
-    from dcmppi.bench.report import write_report
+    from dcmppi.bench.reports.report import write_report
 
     path = tmp_path / "r.db"
     exp = load_experiment("static").select(2, ("mppi",), ("none",))
@@ -162,7 +162,7 @@ def test_numpys_level_is_its_widest_target_that_runs():
 def test_rows_that_only_errored_do_not_bind_the_fixed_rerun(tmp_path):
     """The bench says "fix the cause and rerun": a run whose rows are all errors (replaced by the
     rerun's) does not refuse the fixed code, and the report is not called mixed."""
-    from dcmppi.bench.report import write_report
+    from dcmppi.bench.reports.report import write_report
 
     path = tmp_path / "r.db"
     exp = load_experiment("static").select(1, ("mppi",), ("none",))

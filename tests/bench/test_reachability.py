@@ -6,9 +6,9 @@ import dataclasses
 import numpy as np
 import pytest
 
+from dcmppi.bench.episodes.reachability import propagate, reach
+from dcmppi.bench.episodes.runner import Episode
 from dcmppi.bench.experiments import load_experiment
-from dcmppi.bench.reachability import propagate, reach
-from dcmppi.bench.runner import Episode
 
 BOUNDS = np.array([0.0, 0.0, 10.0, 10.0])
 NO_STATIC = np.empty((0, 3))
@@ -102,7 +102,7 @@ def test_a_given_prediction_is_refused_where_pedestrians_react():
 
 def test_the_summary_counts_collisions_among_finished_episodes():
     """An episode that ended in an error has no outcome: it is not among the episodes counted."""
-    from dcmppi.bench.reachability import Reach, summary
+    from dcmppi.bench.episodes.reachability import Reach, summary
 
     found = {
         0: Reach(True, False, 5.0, 0.0),

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 from dcmppi import tasks
-from dcmppi.bench import replay as rp
+from dcmppi.bench.episodes.runner import EpisodeSpec, decode_trace, encode_trace, run_episode
 from dcmppi.bench.experiments import Experiment
-from dcmppi.bench.provenance import kernels
-from dcmppi.bench.results import ResultsDB
-from dcmppi.bench.runner import EpisodeSpec, decode_trace, encode_trace, run_episode
+from dcmppi.bench.results.database import ResultsDB
+from dcmppi.bench.results.provenance import kernels
+from dcmppi.bench.runs import replay as rp
 
 BARN = pathlib.Path(__file__).parents[1] / "tasks" / "data" / "barn_worlds_0_1.csv"
 TINY = {"K": 16, "N": 8}

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from dcmppi.bench.episodes.runner import EpisodeSpec
 from dcmppi.bench.experiments import load_experiment
-from dcmppi.bench.report import table
-from dcmppi.bench.results import SCHEMA_VERSION, ConfigMismatch, ResultsDB
-from dcmppi.bench.runner import EpisodeSpec
-from dcmppi.bench.stats import mcnemar_exact, paired, summarize, wilson
+from dcmppi.bench.reports.report import table
+from dcmppi.bench.results.database import SCHEMA_VERSION, ConfigMismatch, ResultsDB
+from dcmppi.bench.results.stats import mcnemar_exact, paired, summarize, wilson
 
 CONFIG = {
     "task": "forest",
@@ -205,7 +205,7 @@ def _partial_db(path, writer_pid=None):
 
 
 def test_report_says_when_a_database_is_partial_or_being_written(tmp_path):
-    from dcmppi.bench.report import write_report
+    from dcmppi.bench.reports.report import write_report
 
     _partial_db(tmp_path / "p.db")
     text = write_report(tmp_path / "p.db", tmp_path / "out", plots=False)
@@ -230,7 +230,7 @@ def _dead_pid():
 
 
 def test_a_complete_database_gets_no_notice(tmp_path):
-    from dcmppi.bench.report import write_report
+    from dcmppi.bench.reports.report import write_report
 
     exp = load_experiment("static").select(2, ("mppi", "clustered"), ("none",))
     db = ResultsDB(tmp_path / "c.db", exp.config())
@@ -274,7 +274,7 @@ def _read_only(monkeypatch):
 
 
 def test_a_read_only_database_ends_in_one_line_even_for_a_no_op_resume(tmp_path, monkeypatch):
-    from dcmppi.bench.results import StorageError
+    from dcmppi.bench.results.database import StorageError
 
     path = tmp_path / "r.db"
     _complete_db(path)
@@ -288,7 +288,7 @@ def test_a_read_only_database_ends_in_one_line_even_for_a_no_op_resume(tmp_path,
 
 
 def test_a_full_disk_ends_in_one_line_and_keeps_the_rows(tmp_path):
-    from dcmppi.bench.results import StorageError
+    from dcmppi.bench.results.database import StorageError
 
     path = tmp_path / "r.db"
     db = ResultsDB(path, CONFIG)
@@ -307,7 +307,7 @@ def test_a_full_disk_ends_in_one_line_and_keeps_the_rows(tmp_path):
 def test_a_directory_sqlite_cannot_write_in_ends_in_one_line(tmp_path, monkeypatch):
     import sqlite3
 
-    from dcmppi.bench.results import StorageError
+    from dcmppi.bench.results.database import StorageError
 
     def cannot_open(*args, **kwargs):
         raise sqlite3.OperationalError("unable to open database file")
@@ -325,7 +325,7 @@ def test_reports_read_where_sqlite_cannot_open_its_side_files(tmp_path, monkeypa
     import shutil
     import sqlite3
 
-    from dcmppi.bench.report import write_report
+    from dcmppi.bench.reports.report import write_report
 
     live = tmp_path / "live"
     live.mkdir()
@@ -358,7 +358,7 @@ def test_reports_read_where_sqlite_cannot_open_its_side_files(tmp_path, monkeypa
 
 
 def test_a_report_of_error_rows_has_no_nan_and_lists_the_tracebacks(tmp_path):
-    from dcmppi.bench.report import write_report
+    from dcmppi.bench.reports.report import write_report
 
     error = {"error": "ZeroDivisionError: boom", "traceback": "Traceback\n  line 3\nZeroDiv"}
     _complete_db(tmp_path / "e.db", result=error)
@@ -392,7 +392,7 @@ def test_a_row_keeps_the_final_pose_and_the_trace(tmp_path):
 
 
 def test_shards_merge_into_one_report(tmp_path):
-    from dcmppi.bench.report import write_report
+    from dcmppi.bench.reports.report import write_report
 
     _complete_db(tmp_path / "a.db", envs=[0])
     _complete_db(tmp_path / "b.db", envs=[1])
@@ -405,7 +405,7 @@ def test_shards_merge_into_one_report(tmp_path):
 
 
 def test_shards_with_different_results_or_configurations_are_named(tmp_path):
-    from dcmppi.bench.report import write_report
+    from dcmppi.bench.reports.report import write_report
 
     _complete_db(tmp_path / "a.db", envs=[0, 1])
     _complete_db(tmp_path / "b.db", envs=[1], result=_result("collision"))
@@ -429,7 +429,7 @@ def test_the_gallery_is_linked_beside_the_rows(tmp_path, monkeypatch):
     import sys
     import types
 
-    from dcmppi.bench.report import write_report
+    from dcmppi.bench.reports.report import write_report
 
     _complete_db(tmp_path / "g.db")
     calls = []
@@ -438,7 +438,8 @@ def test_the_gallery_is_linked_beside_the_rows(tmp_path, monkeypatch):
         calls.append((list(db_paths), n))
         return {("none", "mppi"): [(1, "collision", "gallery/mppi-1.gif")]}
 
-    monkeypatch.setitem(sys.modules, "dcmppi.bench.replay", types.SimpleNamespace(gallery=gallery))
+    replay = types.SimpleNamespace(gallery=gallery)
+    monkeypatch.setitem(sys.modules, "dcmppi.bench.runs.replay", replay)
     write_report(tmp_path / "g.db", tmp_path / "out", plots=False, gallery=2)
     assert calls == [([tmp_path / "g.db"], 2)]
     md = (tmp_path / "out" / "report.md").read_text()
@@ -450,7 +451,7 @@ def test_the_paths_plot_reruns_only_episodes_that_finished():
     """An episode that raised or timed out in environment 0 is not re-run for paths.png (it
     would raise or hang again in the report's process): the plot takes the environment where
     most rows finished, then the first noise profile and the lowest index."""
-    from dcmppi.bench.plots import paths_environment
+    from dcmppi.bench.reports.plots import paths_environment
 
     def ok(noise, label, index):
         return {"noise": noise, "label": label, "env_index": index, "status": "ok"}

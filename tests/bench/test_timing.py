@@ -9,7 +9,8 @@ import time
 import numpy as np
 import pytest
 
-from dcmppi.bench import provenance, timing
+from dcmppi.bench import timing
+from dcmppi.bench.results import provenance
 from dcmppi.bench.timing import cases, cores, episodes, loop, profile, scaling
 from dcmppi.bench.timing.worlds import dense_forest, world
 from dcmppi.control import make_controller
@@ -345,9 +346,9 @@ def test_the_experiment_profile_times_the_moving_obstacles_motion(tmp_path, caps
 
 
 def test_a_profiled_episode_is_the_bench_episode(tmp_path):
+    from dcmppi.bench.episodes.runner import run_episode
     from dcmppi.bench.experiments import load_experiment
-    from dcmppi.bench.results import ResultsDB
-    from dcmppi.bench.runner import run_episode
+    from dcmppi.bench.results.database import ResultsDB
 
     path = tmp_path / "short.toml"
     path.write_text(_SHORT)

@@ -7,7 +7,7 @@ import pytest
 
 import dcmppi
 from dcmppi.control.agents import Agent, agent_names, make_agent, register_agent
-from dcmppi.control.agents.projection import bound
+from dcmppi.control.kernels.projection import bound
 
 AGENTS = ["dubins", "unicycle", "holonomic"]
 DT = 0.1

@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 import dcmppi
-from dcmppi.bench.runner import Episode, EpisodeSpec
-from dcmppi.control.clustered import (
+from dcmppi.bench.episodes.runner import Episode, EpisodeSpec
+from dcmppi.control.kernels.costs import goal_distance
+from dcmppi.control.planners.clustered import (
     cluster_features,
     cluster_labels,
     cluster_updates,
@@ -14,8 +15,7 @@ from dcmppi.control.clustered import (
     features_of_sums,
     mean_std,
 )
-from dcmppi.control.costs import goal_distance
-from dcmppi.control.mppi import mppi_update
+from dcmppi.control.planners.mppi import mppi_update
 
 
 def two_valley(eps):

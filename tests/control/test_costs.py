@@ -3,7 +3,12 @@
 import numpy as np
 import pytest
 
-from dcmppi.control.costs import OccupancyGrid, collision_counts, goal_distance, static_costs
+from dcmppi.control.kernels.costs import (
+    OccupancyGrid,
+    collision_counts,
+    goal_distance,
+    static_costs,
+)
 
 
 def test_grid_is_conservative_and_tight():
@@ -211,7 +216,7 @@ def _brute_counts(x, y, tracks, distance):
 def test_track_index_counts_equal_all_pairs(seed):
     """Cells as wide as the largest distance lose no pair: equal counts to testing every state
     against every track, ties at the distance and states far outside the cells included."""
-    from dcmppi.control.costs import TrackIndex
+    from dcmppi.control.kernels.costs import TrackIndex
 
     rng = np.random.default_rng(seed)
     for _ in range(100):

@@ -7,8 +7,8 @@ import pytest
 
 import dcmppi
 from dcmppi.control import Prediction, Predictor, make_predictor, register_predictor
+from dcmppi.control.kernels.social import FORCE_CUTOFF, B
 from dcmppi.control.predictors import base
-from dcmppi.control.social import FORCE_CUTOFF, B
 
 NAMES = ["mppi", "clustered", "dc", "tube"]
 SHARED = dict(N=20, dt=0.1, robot_radius=0.5, max_speed=1.0, alpha=1000.0, beta=100.0, P=5,

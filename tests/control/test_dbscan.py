@@ -1,11 +1,11 @@
-"""dcmppi.control.dbscan: labels identical to scikit-learn's DBSCAN, edge cases included."""
+"""dcmppi.control.kernels.dbscan: labels identical to scikit-learn's DBSCAN, edge cases included."""
 
 import numpy as np
 import pytest
 from sklearn.cluster import DBSCAN
 
-from dcmppi.control.clustered import DBSCAN_MIN_SAMPLES, dbscan_radius
-from dcmppi.control.dbscan import SPLIT, _cells, dbscan
+from dcmppi.control.kernels.dbscan import SPLIT, _cells, dbscan
+from dcmppi.control.planners.clustered import DBSCAN_MIN_SAMPLES, dbscan_radius
 
 
 def assert_like_sklearn(X, eps, min_samples):

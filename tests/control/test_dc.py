@@ -4,8 +4,8 @@ import numpy as np
 
 import dcmppi
 from dcmppi.control import Objective, Prediction
-from dcmppi.control.costs import OccupancyGrid, collision_counts, valid_cylinders
-from dcmppi.control.dynamics import obstacle_futures, rollout_time_major
+from dcmppi.control.kernels.costs import OccupancyGrid, collision_counts, valid_cylinders
+from dcmppi.control.kernels.dynamics import obstacle_futures, rollout_time_major
 from dcmppi.control.predictors.prior import sample_speeds
 
 MODEL = np.array([1.0, 0.05, 0.0, 0.02])  # v_mean, v_std, omega_mean, omega_std

@@ -2,7 +2,13 @@
 
 import numpy as np
 
-from dcmppi.control.dynamics import dubins_step, obstacle_futures, rollout, rollout_time_major, sinc
+from dcmppi.control.kernels.dynamics import (
+    dubins_step,
+    obstacle_futures,
+    rollout,
+    rollout_time_major,
+    sinc,
+)
 
 
 def fine_euler(state, U, v, dt, sub=2000):

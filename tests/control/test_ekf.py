@@ -8,8 +8,8 @@ import pytest
 
 import dcmppi
 from dcmppi import tasks
-from dcmppi.bench.runner import Episode, EpisodeSpec
-from dcmppi.control.dynamics import dubins_step, wrap_angle
+from dcmppi.bench.episodes.runner import Episode, EpisodeSpec
+from dcmppi.control.kernels.dynamics import dubins_step, wrap_angle
 from dcmppi.control.predictors.filter import PROCESS_STD, ObstacleFilter, dubins_transition
 
 CROWD_MODEL = np.array([1.0, 1.0 / np.sqrt(12.0), 0.0, 1.0 / np.sqrt(12.0)])  # U(0.5, 1.5), U(+-.5)
@@ -332,7 +332,7 @@ def test_diagnostics_keep_each_steps_posterior():
 
 
 def test_plot_ekf_errors_tracks_every_obstacle(tmp_path):
-    from dcmppi.bench.ekf_plot import plot_ekf_errors
+    from dcmppi.bench.reports.ekf_plot import plot_ekf_errors
 
     spec = noisy_crowd_spec("ekf")
     spec = dataclasses.replace(spec, task_params={**spec.task_params, "time_limit": 2.0})

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from dcmppi.control.mppi import mppi_update, mppi_weights
+from dcmppi.control.planners.mppi import mppi_update, mppi_weights
 
 
 def test_update_moves_towards_quadratic_optimum():

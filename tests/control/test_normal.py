@@ -1,4 +1,5 @@
-"""dcmppi.control.normal: numpy's standard normals, bit for bit, and the generator state after."""
+"""dcmppi.control.kernels.normal: numpy's standard normals, bit for bit, and the generator state
+after."""
 
 import importlib.util
 import sys
@@ -7,8 +8,8 @@ import warnings
 import numpy as np
 import pytest
 
-from dcmppi.control import normal
-from dcmppi.control.normal import _pcg64_state, scaled_normal, standard_normal
+from dcmppi.control.kernels import normal
+from dcmppi.control.kernels.normal import _pcg64_state, scaled_normal, standard_normal
 
 BIT_GENERATORS = [
     np.random.PCG64,
@@ -97,7 +98,7 @@ def test_the_inline_check_draw_reaches_the_tail_and_wedges_and_passes():
 
 
 def _fresh_normal():
-    """A new copy of dcmppi/control/normal.py, its first use not yet checked. It keeps the
+    """A new copy of dcmppi/control/kernels/normal.py, its first use not yet checked. It keeps the
     module's name (outside sys.modules): numba's cache records it and imports it on loading."""
     spec = importlib.util.spec_from_file_location(normal.__name__, normal.__file__)
     module = importlib.util.module_from_spec(spec)

@@ -7,10 +7,8 @@ from fused_cabs import needs_fused_cabs
 from scipy import stats
 
 from dcmppi.control import make_controller
-from dcmppi.control.agents.projection import NO_SUMS, project_columns, project_perturbed
-from dcmppi.control.libm import cabs, log_unit, log_unit32, sincos, sincos_turn32
-from dcmppi.control.mppi import MPPI
-from dcmppi.control.perturbations import (
+from dcmppi.control.kernels.libm import cabs, log_unit, log_unit32, sincos, sincos_turn32
+from dcmppi.control.kernels.perturbations import (
     _GAMMA,
     _ULP,
     BLOCK,
@@ -20,8 +18,10 @@ from dcmppi.control.perturbations import (
     draw_box,
     draw_normals,
 )
-from dcmppi.control.sums import _accumulate
-from dcmppi.control.threads import parts
+from dcmppi.control.kernels.projection import NO_SUMS, project_columns, project_perturbed
+from dcmppi.control.kernels.sums import _accumulate
+from dcmppi.control.kernels.threads import parts
+from dcmppi.control.planners.mppi import MPPI
 
 
 @numba.njit
@@ -325,7 +325,7 @@ def test_a_replaced_importance_is_used():
 def test_the_importance_summed_in_the_bounding_pass_is_importances(agent):
     """With one constant draw per sample, or perturbations given, the pass that bounds the
     controls sums the importance term over the steps too: the values of importance(U0, e), on
-    one thread and two; project_columns' sums are those of dcmppi.control.sums."""
+    one thread and two; project_columns' sums are those of dcmppi.control.kernels.sums."""
     for threads in (1, 2):
         ctrl = make_controller(
             "mppi", agent=agent, K=200, N=12, seed=4, perturbation="constant", threads=threads

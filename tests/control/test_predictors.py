@@ -6,7 +6,7 @@ import pytest
 
 import dcmppi
 from dcmppi.control import Objective, Prediction, Predictor, make_predictor, register_predictor
-from dcmppi.control.costs import OccupancyGrid
+from dcmppi.control.kernels.costs import OccupancyGrid
 from dcmppi.control.predictors import base, predictor_names
 
 NAMES = ["mppi", "clustered", "dc", "tube"]

@@ -2,7 +2,7 @@
 
 import pytest
 
-from dcmppi.bench.runner import EpisodeSpec, run_episode
+from dcmppi.bench.episodes.runner import EpisodeSpec, run_episode
 
 pytestmark = pytest.mark.slow  # whole MuJoCo episodes, six per test
 

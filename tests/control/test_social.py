@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from dcmppi.control import social
+from dcmppi.control.kernels import social
 
 R = 0.3  # pedestrian radius [m]
 NONE = (np.zeros((0, 2)), np.zeros(0))  # no pushing agents

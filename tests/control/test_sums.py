@@ -10,9 +10,9 @@ import sys
 import numpy as np
 import pytest
 
-from dcmppi.control.mppi import effective_sample_size, mppi_update, mppi_weights
-from dcmppi.control.sums import importance, pairwise, weighted_rows
-from dcmppi.control.tube import tvlqr_gains
+from dcmppi.control.kernels.sums import importance, pairwise, weighted_rows
+from dcmppi.control.planners.mppi import effective_sample_size, mppi_update, mppi_weights
+from dcmppi.control.planners.tube import tvlqr_gains
 
 
 def halving_reference(U0, eps, w):
@@ -138,7 +138,7 @@ def test_lqr_gains_of_several_controls_equal_the_linear_algebra():
 
 _KERNELS = """
 import json, sys
-from dcmppi.bench.provenance import kernels
+from dcmppi.bench.results.provenance import kernels
 from dcmppi.bench.timing.cases import FINGERPRINT_CASES
 from dcmppi.bench.timing.fingerprint import fingerprint
 cases = [c for c in FINGERPRINT_CASES if c.label in sys.argv[1:]]

@@ -1,5 +1,5 @@
-"""lambda_="auto" (dcmppi.control.temperature): the ESS band on random costs and real steps, the
-importance term against a brute-force reference, bad input."""
+"""lambda_="auto" (dcmppi.control.planners.temperature): the ESS band on random costs and real
+steps, the importance term against a brute-force reference, bad input."""
 
 import math
 
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import dcmppi
-from dcmppi.control.mppi import effective_sample_size, mppi_weights
-from dcmppi.control.temperature import ESS_BAND, _log_ess, choose_lambda
+from dcmppi.control.planners.mppi import effective_sample_size, mppi_weights
+from dcmppi.control.planners.temperature import ESS_BAND, _log_ess, choose_lambda
 
 STATE, GOAL = np.array([0.0, 0.0, 0.3]), np.array([14.0, 3.0])
 STATIC = np.array([[6.0, 1.5, 1.0]])

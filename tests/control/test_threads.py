@@ -11,9 +11,9 @@ import pytest
 from threadpoolctl import threadpool_limits
 
 import dcmppi
-from dcmppi.control.dynamics import arc_columns, dubins_step
-from dcmppi.control.mppi import MPPI
-from dcmppi.control.threads import ALIGN, parts, run
+from dcmppi.control.kernels.dynamics import arc_columns, dubins_step
+from dcmppi.control.kernels.threads import ALIGN, parts, run
+from dcmppi.control.planners.mppi import MPPI
 
 GOAL = np.array([12.0, 1.0])
 STATIC = np.array([[4.0, 0.5, 0.6], [7.0, -1.0, 0.8], [9.0, 2.0, 0.5]])

@@ -6,8 +6,8 @@ import pytest
 import dcmppi
 from dcmppi.control.agents import make_agent
 from dcmppi.control.agents.dubins import jacobian_terms
-from dcmppi.control.dynamics import dubins_step, rollout, wrap_angle
-from dcmppi.control.tube import dubins_lqr_gain, tvlqr_gains
+from dcmppi.control.kernels.dynamics import dubins_step, rollout, wrap_angle
+from dcmppi.control.planners.tube import dubins_lqr_gain, tvlqr_gains
 
 GOAL = np.array([20.0, 0.0])
 
@@ -125,7 +125,7 @@ def test_lqr_keeps_the_real_robot_near_the_nominal_in_a_noisy_corridor(tmp_path)
     1 m and 1 rad) let it stray 0.10-0.17 m."""
     import json
 
-    from dcmppi.bench.runner import Episode, EpisodeSpec
+    from dcmppi.bench.episodes.runner import Episode, EpisodeSpec
 
     walls = [[x, y, 0.5] for x in np.arange(-2.0, 24.0, 0.8) for y in (-2.6, 2.6)]
     path = tmp_path / "corridor.json"

@@ -7,7 +7,7 @@ import pytest
 
 pytest.importorskip("matplotlib")
 
-from dcmppi.bench.stats import summarize  # noqa: E402
+from dcmppi.bench.results.stats import summarize  # noqa: E402
 from dcmppi.render.plots import (  # noqa: E402
     controller_time_figure,
     failure_figure,

@@ -10,9 +10,9 @@ import pytest
 from video_frames import frames_of
 
 from dcmppi import cli
-from dcmppi.bench import runner
-from dcmppi.bench.runner import Episode, EpisodeSpec, act, controller_for, make_env
-from dcmppi.bench.snapshot import first_step
+from dcmppi.bench.episodes import runner
+from dcmppi.bench.episodes.runner import Episode, EpisodeSpec, act, controller_for, make_env
+from dcmppi.bench.episodes.snapshot import first_step
 from dcmppi.render import video
 from dcmppi.render.figures import PLAN_STYLES, rollouts_figure, write_figures
 from dcmppi.render.overlay import Overlay

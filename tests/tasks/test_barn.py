@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from dcmppi import tasks
-from dcmppi.bench.execution import run_experiment
+from dcmppi.bench.episodes.runner import EpisodeSpec, check_specs, make_env
 from dcmppi.bench.experiments import Experiment, ExperimentError, load_experiment
-from dcmppi.bench.report import score_table, write_report
-from dcmppi.bench.results import SCHEMA_VERSION, ResultsDB
-from dcmppi.bench.runner import EpisodeSpec, check_specs, make_env
-from dcmppi.bench.stats import bootstrap_mean, paired_scores, summarize
+from dcmppi.bench.reports.report import score_table, write_report
+from dcmppi.bench.results.database import SCHEMA_VERSION, ResultsDB
+from dcmppi.bench.results.stats import bootstrap_mean, paired_scores, summarize
+from dcmppi.bench.runs.execution import run_experiment
 from dcmppi.tasks import barn, layout
 
 BARN = pathlib.Path(__file__).parent / "data" / "barn_worlds_0_1.csv"

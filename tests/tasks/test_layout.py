@@ -228,7 +228,7 @@ def test_an_impossible_json_or_barn_layout_names_its_file_and_line(tmp_path):
 
 
 def test_a_task_whose_parameters_draw_an_impossible_world_is_refused():
-    from dcmppi.bench.runner import EpisodeSpec, check_specs
+    from dcmppi.bench.episodes.runner import EpisodeSpec, check_specs
 
     for params, message in [
         ({"obstacle_radius": 11.0}, r"Blocked drew an impossible world: the robot \(radius "

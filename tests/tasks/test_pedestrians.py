@@ -4,7 +4,7 @@ each other, determinism, the speed cap, the substeps, bad input; every behaviour
 import numpy as np
 import pytest
 
-from dcmppi.control import social
+from dcmppi.control.kernels import social
 from dcmppi.tasks import pedestrians
 from dcmppi.tasks.pedestrians import MAX_SPEED_FACTOR, Pedestrians
 

@@ -7,7 +7,7 @@ BARN world of the `layout` task) also sets that task parameter to i in environme
 shipped experiments (static, dynamic, dynamic-dubins, barn) are TOML files beside this module;
 `load_experiment` takes their names or a path. The file format: `dcmppi.bench.experiments.schema`.
 
-May import dcmppi.tasks (task names, noise profiles) and dcmppi.bench.plugins (controller
+May import dcmppi.tasks (task names, noise profiles) and dcmppi.bench.episodes.plugins (controller
 names); runs nothing itself.
 """
 
@@ -22,8 +22,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from dcmppi.bench.episodes.runner import EpisodeSpec
 from dcmppi.bench.experiments.schema import ExperimentError, parse
-from dcmppi.bench.runner import EpisodeSpec
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -238,7 +238,7 @@ class Experiment:
 
 def _own_row(exp: Experiment, item: str) -> Row:
     """A row of one controller named on the command line, labelled with its name."""
-    from dcmppi.bench.plugins import resolve_controller
+    from dcmppi.bench.episodes.plugins import resolve_controller
 
     try:
         resolve_controller(item)

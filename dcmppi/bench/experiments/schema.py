@@ -191,7 +191,7 @@ def _row(source, i, data, resolve) -> dict:
     _table(source, key, data, ROW_KEYS, ("controller",))
     controller = data["controller"]
     if resolve:
-        from dcmppi.bench.plugins import resolve_controller
+        from dcmppi.bench.episodes.plugins import resolve_controller
 
         try:
             resolve_controller(controller)

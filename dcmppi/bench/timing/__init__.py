@@ -24,25 +24,25 @@ problem run interleaved in blocks of consecutive steps, so load changes on a sha
 them alike.
 
 `--against pytorch_mppi [--K K] [--N N]` times our mppi beside pytorch_mppi on the forest at that
-size (dcmppi.bench.peer), with `--threads T` also ours on T threads and what T threads at once
-gain on this machine in a scalar, a vector and a streaming kernel (`cores`); `--scaling` the
+size (dcmppi.bench.timing.peer), with `--threads T` also ours on T threads and what T threads at
+once gain on this machine in a scalar, a vector and a streaming kernel (`cores`); `--scaling` the
 controllers as K, N, the cylinders, the moving obstacles and P grow one at a time (`scaling`);
 `--profile EXPERIMENT` where an experiment's bench episodes spend their time, end to end
 (`episodes`).
 
 Modules: `worlds` (the problems), `cases` (the table's rows and the variants), `loop` (a timed
 closed loop, interleaved timing), `profile` (`--profile`, through the controllers' timer hook),
-`episodes` (`--profile EXPERIMENT`: bench episodes, dcmppi.bench.runner's, end to end),
+`episodes` (`--profile EXPERIMENT`: bench episodes, dcmppi.bench.episodes.runner's, end to end),
 `fingerprint` (`--fingerprint`), `cores` (the machine's gains from threads), `scaling`
 (`--scaling`: the curves, their fits and plot), `cli` (the options and the table). Only the
 entry points (`main`, `python -m dcmppi.bench.timing`) tune malloc for the process. May import
 dcmppi.control, the tasks' world generators (dcmppi.tasks.worlds), their pedestrians and task
-classes (for the pedestrian problems' worlds and next goals), dcmppi.bench.peer, dcmppi.bench's
-runner, results and experiments (the episode profile), and dcmppi.render (the scaling plot,
-given plain numbers); nothing imports it but the command line.
+classes (for the pedestrian problems' worlds and next goals), dcmppi.bench.timing.peer,
+dcmppi.bench's runner, results and experiments (the episode profile), and dcmppi.render (the
+scaling plot, given plain numbers); nothing imports it but the command line.
 """
 
-from .cli import main
-from .worlds import forest, push, pushed
+from dcmppi.bench.timing.cli import main
+from dcmppi.bench.timing.worlds import forest, push, pushed
 
 __all__ = ["main", "forest", "push", "pushed"]

@@ -8,15 +8,14 @@ import sys
 
 from threadpoolctl import threadpool_limits
 
-from dcmppi.bench.provenance import kernels
+from dcmppi.bench.results.provenance import kernels
+from dcmppi.bench.timing import cases, episodes, scaling
+from dcmppi.bench.timing.cores import machine_gains
+from dcmppi.bench.timing.fingerprint import fingerprint, print_fingerprint
+from dcmppi.bench.timing.loop import BLOCK, ClosedLoop, time_cases
+from dcmppi.bench.timing.profile import print_profile, profile
 from dcmppi.control import defaults
-from dcmppi.control._malloc import tune_malloc
-
-from . import cases, episodes, scaling
-from .cores import machine_gains
-from .fingerprint import fingerprint, print_fingerprint
-from .loop import BLOCK, ClosedLoop, time_cases
-from .profile import print_profile, profile
+from dcmppi.control.kernels._malloc import tune_malloc
 
 STEPS = 100  # control steps per case of the table, the profile, the fingerprint and --against
 ENVIRONMENTS, WORKERS = 10, 2  # --profile EXPERIMENT: environments run, workers projected
@@ -196,7 +195,7 @@ def table(selected, steps, block):
 
 def against(args):
     """`--against pytorch_mppi`: our mppi (time-varying) and pytorch_mppi on the forest."""
-    from dcmppi.bench import peer
+    from dcmppi.bench.timing import peer
 
     try:
         peer.require()
@@ -259,8 +258,8 @@ def against(args):
 def profile_experiment(args):
     """`--profile EXPERIMENT`: its bench episodes profiled end to end (episodes); a bad
     experiment, row or world is one line, as in `dcmppi bench`."""
+    from dcmppi.bench.episodes.runner import check_specs
     from dcmppi.bench.experiments import load_experiment
-    from dcmppi.bench.runner import check_specs
 
     try:
         exp = load_experiment(args.profile)

@@ -1,6 +1,6 @@
 """What threads can gain on this machine: one kernel on T threads at once against one thread.
 
-Three kernels bound a split over samples (dcmppi.control.threads) from above: scalar
+Three kernels bound a split over samples (dcmppi.control.kernels.threads) from above: scalar
 multiply-adds in registers (`compute`), vector multiply-adds over an array in L1 (`vector`:
 the throughput of a core's vector units, as the controllers' vectorised loops use them), and a
 stream of arrays larger than a core's L2 cache (`stream`), as a controller's step streams its

@@ -1,7 +1,7 @@
 """`dcmppi timing --profile EXPERIMENT`: where a bench episode's time goes, end to end.
 
 The first `environments` environments of every row and noise profile of an experiment run in
-this process as a bench worker runs them (dcmppi.bench.runner.Episode), timed:
+this process as a bench worker runs them (dcmppi.bench.episodes.runner.Episode), timed:
 - per step: the controller's act(), split by its timer hook (dcmppi.control.timer) into its
   parts and the Python between them; the task's env.step, split into MuJoCo's substeps (the
   physics' substep loop), the moving obstacles' motion (their own model: arcs, pedestrians'
@@ -27,11 +27,10 @@ from pathlib import Path
 
 from threadpoolctl import threadpool_limits
 
-from dcmppi.bench.results import ResultsDB
-from dcmppi.bench.runner import Episode
+from dcmppi.bench.episodes.runner import Episode
+from dcmppi.bench.results.database import ResultsDB
+from dcmppi.bench.timing.profile import LABELS, NESTED
 from dcmppi.control.timer import StepTimer
-
-from .profile import LABELS, NESTED
 
 # (key, owner, method) timed inside env.step and, by the runner, between two steps; owners:
 # the env's "physics" and "task", the physics' obstacle "motion" (None without moving

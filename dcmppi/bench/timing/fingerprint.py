@@ -10,7 +10,7 @@ import hashlib
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from .loop import ClosedLoop
+from dcmppi.bench.timing.loop import ClosedLoop
 
 
 def fingerprint(cases, steps):

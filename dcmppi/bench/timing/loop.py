@@ -4,9 +4,7 @@ import time
 
 import numpy as np
 
-from dcmppi.control import make_controller
-
-from .worlds import (
+from dcmppi.bench.timing.worlds import (
     PEDESTRIANS,
     moving_crowd,
     observed,
@@ -15,7 +13,8 @@ from .worlds import (
     pushed,
     walking_crowd,
 )
-from .worlds import world as family_world  # `world` is ClosedLoop's argument
+from dcmppi.bench.timing.worlds import world as family_world  # `world` is ClosedLoop's argument
+from dcmppi.control import make_controller
 
 PROBLEMS = ("forest", "forest+push", "crowd", *PEDESTRIANS)
 SKIP = 3  # first steps left out of the figures: they build the cost map and load the kernels

@@ -8,9 +8,8 @@ every step. Nothing else of the controller is replaced.
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from dcmppi.bench.timing.loop import SKIP, ClosedLoop
 from dcmppi.control.timer import StepTimer
-
-from .loop import SKIP, ClosedLoop
 
 # The hook's labels in the order a step runs them; NESTED: {label: the label that includes it}.
 LABELS = (

@@ -19,11 +19,10 @@ import time
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from dcmppi.bench.timing.loop import BLOCK, ClosedLoop, interleave
+from dcmppi.bench.timing.worlds import dense_forest, world
 from dcmppi.control import defaults
 from dcmppi.tasks import worlds as task_worlds
-
-from .loop import BLOCK, ClosedLoop, interleave
-from .worlds import dense_forest, world
 
 CONTROLLERS = ("mppi", "clustered", "dc", "tube")
 HOME = {"mppi": "forest", "clustered": "forest", "tube": "forest", "dc": "crowd"}

@@ -8,8 +8,8 @@ May import numpy, numba and dcmppi.control's dynamics, threads and validation; t
 these agents (their plants follow them), so they import nothing of the planners.
 """
 
-from . import dubins, holonomic, unicycle  # noqa: F401  (registers the agents)
-from .base import (
+from dcmppi.control.agents import dubins, holonomic, unicycle  # noqa: F401  (registers the agents)
+from dcmppi.control.agents.base import (
     Agent,
     agent_class,
     agent_names,

@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from ..validation import floats, positive
+from dcmppi.control.validation import floats, positive
 
 _AGENTS: dict[str, type] = {}
 

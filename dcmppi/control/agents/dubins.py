@@ -1,15 +1,15 @@
 """`dubins`: the constant-speed car of the static experiment (paper Sec. IV-A, Fig. 1-4).
 
 State (x, y, theta); one control, the turn rate omega, |omega| <= v / r_min; the speed v is
-fixed. Each control period is an exact arc (dcmppi.control.dynamics).
+fixed. Each control period is an exact arc (dcmppi.control.kernels.dynamics).
 """
 
 import numpy as np
 
-from .. import defaults
-from ..dynamics import arc_columns, arc_rollout, dubins_step, sinc
-from ..validation import positive
-from .base import Agent, register_agent
+from dcmppi.control import defaults
+from dcmppi.control.agents.base import Agent, register_agent
+from dcmppi.control.kernels.dynamics import arc_columns, arc_rollout, dubins_step, sinc
+from dcmppi.control.validation import positive
 
 
 @register_agent("dubins")

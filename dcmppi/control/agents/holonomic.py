@@ -9,11 +9,11 @@ commands through velocity actuators (lag).
 import numba
 import numpy as np
 
-from .. import defaults
-from ..dynamics import _wrap
-from ..threads import in_cols
-from ..validation import positive
-from .base import Agent, register_agent
+from dcmppi.control import defaults
+from dcmppi.control.agents.base import Agent, register_agent
+from dcmppi.control.kernels.dynamics import _wrap
+from dcmppi.control.kernels.threads import in_cols
+from dcmppi.control.validation import positive
 
 
 @register_agent("holonomic")

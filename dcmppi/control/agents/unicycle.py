@@ -6,11 +6,11 @@ State (x, y, theta); controls the forward speed v in [0, v_max] and the turn rat
 
 import numpy as np
 
-from .. import defaults
-from ..dynamics import arc_columns, arc_rollout, dubins_step, sinc
-from ..validation import positive
-from .base import Agent, register_agent
-from .dubins import arc_jacobians, jacobian_terms
+from dcmppi.control import defaults
+from dcmppi.control.agents.base import Agent, register_agent
+from dcmppi.control.agents.dubins import arc_jacobians, jacobian_terms
+from dcmppi.control.kernels.dynamics import arc_columns, arc_rollout, dubins_step, sinc
+from dcmppi.control.validation import positive
 
 
 @register_agent("unicycle")

@@ -17,8 +17,8 @@ May import numpy, numba and dcmppi.control's kernels (dynamics, normal, social, 
 never a planner, MuJoCo or the tasks (a predictor sees observations, not the world).
 """
 
-from . import cv, ekf, frozen, given, prior, social  # noqa: F401  (registers the built-in predictors)
-from .base import (
+from dcmppi.control.predictors import cv, ekf, frozen, given, prior, social  # noqa: F401  (registers the built-in predictors)
+from dcmppi.control.predictors.base import (
     Prediction,
     Predictor,
     make_predictor,

@@ -26,7 +26,7 @@ class Prediction:
       beta theta with theta = 1 / P).
     collision_cost: what one state pays for a certain collision with one obstacle (all its
       tracks hit): frozen alpha, sampled futures beta. Clustered MPPI measures the
-      moving-obstacle term in this unit (dcmppi.control.clustered). None: `weight`.
+      moving-obstacle term in this unit (dcmppi.control.planners.clustered). None: `weight`.
     futures: (L', P, N + 1, 2) the sampled futures by obstacle, for diagnostics and videos, or
       None.
     posterior: (mean (L, 5), cov (L, 5, 5)) of each obstacle's x, y, heading, speed, turn rate

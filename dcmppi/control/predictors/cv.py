@@ -17,10 +17,10 @@ positions only) is an error.
 
 import numpy as np
 
-from ..normal import standard_normal
-from ..validation import positive
-from .base import register_predictor
-from .prior import SampledFutures
+from dcmppi.control.kernels.normal import standard_normal
+from dcmppi.control.predictors.base import register_predictor
+from dcmppi.control.predictors.prior import SampledFutures
+from dcmppi.control.validation import positive
 
 # Velocity error std per axis [m/s]: pedestrians walk at 1-1.5 m/s and change speed and heading
 # within a few seconds; 0.3 m/s (a quarter of a walking speed, a heading error of about 15 deg)

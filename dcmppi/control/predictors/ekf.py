@@ -11,10 +11,15 @@ arc as in "prior".
 
 import dataclasses
 
-from ..validation import positive
-from .base import register_predictor
-from .filter import MEASUREMENT_STD, PROCESS_STD, ObstacleFilter, check_process_std
-from .prior import SampledFutures, check_obstacle_model
+from dcmppi.control.predictors.base import register_predictor
+from dcmppi.control.predictors.filter import (
+    MEASUREMENT_STD,
+    PROCESS_STD,
+    ObstacleFilter,
+    check_process_std,
+)
+from dcmppi.control.predictors.prior import SampledFutures, check_obstacle_model
+from dcmppi.control.validation import positive
 
 
 @register_predictor("ekf")

@@ -40,9 +40,9 @@ Each step is one numpy pass over all L obstacles and their components (batched 5
 
 import numpy as np
 
-from ..dynamics import sinc, wrap_angle
-from ..normal import standard_normal
-from ..validation import floats
+from dcmppi.control.kernels.dynamics import sinc, wrap_angle
+from dcmppi.control.kernels.normal import standard_normal
+from dcmppi.control.validation import floats
 
 STATE = ("x", "y", "heading", "speed", "turn_rate")
 HEADINGS = 8  # heading components per obstacle

@@ -7,7 +7,7 @@ plus obstacle_margin.
 
 import numpy as np
 
-from .base import Prediction, Predictor, register_predictor
+from dcmppi.control.predictors.base import Prediction, Predictor, register_predictor
 
 
 @register_predictor("frozen")

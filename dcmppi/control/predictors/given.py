@@ -2,16 +2,16 @@
 
 For a robot whose own forecaster (a learnt model, a tracker's) predicts the moving obstacles,
 and for the benchmark's oracle: where the obstacles ignore the robot their true paths are known
-in advance (dcmppi.bench.runner gives them), which says how far a planner gets with a perfect
-prediction. F futures per obstacle, each weight beta / F; a certain collision costs beta, as
+in advance (dcmppi.bench.episodes.runner gives them), which says how far a planner gets with a
+perfect prediction. F futures per obstacle, each weight beta / F; a certain collision costs beta, as
 with the sampled futures of "prior". An obstacle is left out when none of its futures comes
 within reach of a rollout at any step.
 """
 
 import numpy as np
 
-from .base import register_predictor
-from .prior import SampledFutures
+from dcmppi.control.predictors.base import register_predictor
+from dcmppi.control.predictors.prior import SampledFutures
 
 
 @register_predictor("given")

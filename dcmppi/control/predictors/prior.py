@@ -20,10 +20,10 @@ dominate the prediction and turn dc back into clustered MPPI around frozen obsta
 
 import numpy as np
 
-from ..dynamics import obstacle_futures
-from ..normal import standard_normal
-from ..validation import floats
-from .base import Prediction, Predictor, register_predictor
+from dcmppi.control.kernels.dynamics import obstacle_futures
+from dcmppi.control.kernels.normal import standard_normal
+from dcmppi.control.predictors.base import Prediction, Predictor, register_predictor
+from dcmppi.control.validation import floats
 
 
 def sample_speeds(rng, obstacle_model, L, P):

@@ -4,9 +4,9 @@ other and the robot's plan, weight beta / P.
 Future p draws the same velocity errors as "cv" (so without interactions its futures are cv's):
 pedestrian l wants to walk at desired_lp = v_l + dv_lp, dv_lp ~ N(0, cv_std^2 I), starts at its
 observed position with that velocity, and all pedestrians within reach move together by
-dcmppi.control.social.rollout (Helbing & Molnar, the kernel the tasks' pedestrians use): pushed
-by each other (their observed radii) and, with reactive=True (the default), by the robot along
-its plan (predictor input "robot_plan": the warm start rolled out from the current state,
+dcmppi.control.kernels.social.rollout (Helbing & Molnar, the kernel the tasks' pedestrians use):
+pushed by each other (their observed radii) and, with reactive=True (the default), by the robot
+along its plan (predictor input "robot_plan": the warm start rolled out from the current state,
 radius robot_radius), no walls. reactive=False predicts pedestrians blind to the robot (as
 CrowdNav++'s): a reactive prediction of a crowd that does not react lets the plan push them
 out of its way on paper only. Each pedestrian's speed is capped at MAX_SPEED_FACTOR x its
@@ -18,9 +18,9 @@ speed of every future (exact: no future is faster); the left-out pedestrians pus
 
 import numpy as np
 
-from .. import social as force
-from .base import register_predictor
-from .cv import ConstantVelocity
+from dcmppi.control.kernels import social as force
+from dcmppi.control.predictors.base import register_predictor
+from dcmppi.control.predictors.cv import ConstantVelocity
 
 
 @register_predictor("social")

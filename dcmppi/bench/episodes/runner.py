@@ -1,0 +1,370 @@
+"""Run one episode: a `dcmppi.tasks` environment driven by a `dcmppi` controller.
+
+This is the only module that joins the two sides: tasks know no controller, controllers
+import no MuJoCo. An episode is fully determined by its `EpisodeSpec`; the same spec
+gives the same outcome, path and clearance on every run, worker and executor.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import inspect
+import json
+import time
+import zlib
+from collections.abc import Callable
+
+import numpy as np
+
+from dcmppi.bench.episodes.metrics import Diagnosis, FieldMetrics, spl
+
+
+@dataclasses.dataclass(frozen=True)
+class EpisodeSpec:
+    """One episode: which task, world, noise and controller, with all parameters.
+
+    `seed` fixes the world and the noise sequence (the task's `random`) and, through a
+    separate stream, the controller's sampling. Every controller of a paired comparison
+    runs with the same `seed` for the same environment.
+
+    `controller` is a name `dcmppi.bench.episodes.plugins.resolve_controller` resolves (built-in,
+    entry point or package.module:ClassName). `controller_params` are its own parameters (each must
+    be accepted); `shared_params` are common to the controllers of an experiment and each
+    controller takes those its class accepts.
+    """
+
+    task: str
+    controller: str
+    noise: str = "none"
+    seed: int = 0
+    task_params: dict = dataclasses.field(default_factory=dict)
+    controller_params: dict = dataclasses.field(default_factory=dict)
+    shared_params: dict = dataclasses.field(default_factory=dict)
+
+    def controller_seed(self) -> int:
+        """Seed of the controller's Generator: independent of the world's stream."""
+        return int(np.random.SeedSequence([self.seed, 1]).generate_state(1)[0])
+
+
+def make_env(spec: EpisodeSpec):
+    """The dm_control environment of `spec` (imports MuJoCo)."""
+    from dcmppi import tasks
+
+    task_kwargs = {"random": spec.seed, "noise": spec.noise, **spec.task_params}
+    return tasks.load(spec.task, task_kwargs=task_kwargs)
+
+
+def robot_keys() -> list[str]:
+    """The parameters the plant and the planner share: the agent, its parameters and the robot
+    radius. They are task parameters; the runner hands them to the controller."""
+    from dcmppi.control.agents import agent_param_names
+
+    return ["agent", "robot_radius", *agent_param_names()]
+
+
+def _shared_args(spec: EpisodeSpec) -> dict:
+    """The seed, the task's robot parameters (agent included, the task's defaults where
+    task_params do not set them: the corridor's 0.3 m radius, the square's 1 m/s) and the
+    shared parameters."""
+    keys = robot_keys()
+    clash = sorted(set(keys) & (set(spec.controller_params) | set(spec.shared_params)))
+    if clash:
+        raise ValueError(
+            f"{', '.join(clash)}: robot parameters are task parameters (the plant and the "
+            "planner share them); set them with --task-param / task_params"
+        )
+    return {**_robot(spec), **spec.shared_params, "seed": spec.controller_seed()}
+
+
+def controller_for(spec: EpisodeSpec):
+    """The controller of `spec`, planning with the task's agent and robot parameters.
+
+    It gets its own parameters, and of the seed, the robot parameters and the shared
+    parameters those its class accepts (see `dcmppi.bench.episodes.plugins.build`).
+    """
+    from dcmppi.bench.episodes.plugins import build
+
+    return build(spec.controller, spec.controller_params, _shared_args(spec))
+
+
+def check_specs(specs) -> None:
+    """Build (and reset) the environment of the first spec and the controller of every distinct
+    one, so that a bad name, parameter, world or missing dependency fails before anything is
+    recorded. A shared parameter that none of the controllers takes is an error (a misspelt
+    name)."""
+    from dcmppi.bench.episodes.plugins import accepted_params, resolve_controller
+
+    first = {}
+    for spec in specs:
+        key = json.dumps([spec.controller, spec.controller_params], sort_keys=True)
+        first.setdefault(key, spec)
+    unused = set().union(*(spec.shared_params for spec in first.values()))
+    for i, spec in enumerate(first.values()):
+        controller_for(spec)
+        shared = _shared_args(spec)
+        prediction = {**shared, **spec.controller_params}.get("prediction")
+        accepted = accepted_params(resolve_controller(spec.controller), shared["agent"], prediction)
+        unused = set() if accepted is None else unused - accepted
+        if i == 0:  # a world the task cannot draw (an impossible layout) fails here
+            env = make_env(spec)
+            env.reset()
+            env.close()
+    if unused:
+        names = ", ".join(dict.fromkeys(spec.controller for spec in first.values()))
+        raise ValueError(
+            f"parameter(s) {', '.join(sorted(unused))} set for every controller but taken by "
+            f"none of them ({names}); check the names"
+        )
+
+
+def act(controller, observation) -> np.ndarray:
+    """The controller's action for a task observation, as the task's action array (nu,).
+
+    Calls act(state, goal, static, moving, obstacle_model) and passes the map's bounds as
+    `bounds`, and the observed velocities of the moving obstacles as `moving_velocity` (and the
+    true futures as `moving_futures`, see `TrueFutures`) where the observation has them, to
+    controllers whose act takes that keyword (dcmppi's do; a user's may not)."""
+    args = (
+        observation["robot_pose"],
+        observation["goal"],
+        observation["static_obstacles"],
+        observation["moving_obstacles"],
+        observation["obstacle_model"],
+    )
+    extra = {
+        name: observation[key] for name, key in _keywords(type(controller)) if key in observation
+    }
+    u = controller.act(*args, **extra)
+    return np.asarray(u, dtype=np.float64).reshape(-1)
+
+
+# act's keywords: (controller keyword, observation key)
+_KEYWORDS = (
+    ("bounds", "map_bounds"),
+    ("moving_velocity", "moving_velocity"),
+    ("moving_futures", "moving_futures"),
+)
+
+
+@functools.cache
+def _keywords(cls) -> tuple:
+    """Those of _KEYWORDS whose keyword cls.act accepts."""
+    return tuple((name, key) for name, key in _KEYWORDS if _takes(cls, name))
+
+
+def _takes(cls, name: str) -> bool:
+    """Whether cls.act accepts the keyword `name`."""
+    try:
+        parameters = inspect.signature(cls.act).parameters.values()
+    except (TypeError, ValueError):
+        return False
+    return any(p.name == name or p.kind == p.VAR_KEYWORD for p in parameters)
+
+
+_WARM: set[str] = set()  # controller configurations this process has warmed up
+
+
+def warm_up(spec: EpisodeSpec, observation) -> None:
+    """One untimed act() of a throwaway copy of the controller on `observation`, once per
+    process and controller configuration: first-call costs (numba compilation, imports,
+    caches) stay out of the timed steps. The copy has its own generator; the episode's
+    controller is untouched."""
+    key = json.dumps(
+        [spec.task, spec.controller, spec.controller_params, spec.shared_params, _robot(spec)],
+        sort_keys=True,
+        default=repr,
+    )
+    if key not in _WARM:
+        controller = controller_for(spec)
+        controller.reset()
+        act(controller, observation)
+        _WARM.add(key)
+
+
+def _robot(spec: EpisodeSpec) -> dict:
+    """The robot the task simulates for spec (dcmppi.tasks.robot), computed once per task and
+    task parameters."""
+    return dict(_task_robot(spec.task, json.dumps(spec.task_params, sort_keys=True)))
+
+
+@functools.lru_cache(maxsize=64)
+def _task_robot(task: str, task_params: str) -> tuple:
+    from dcmppi.tasks import robot
+
+    return tuple(robot(task, json.loads(task_params)).items())
+
+
+class TrueFutures:
+    """The moving obstacles' true futures for a controller whose predictor takes "futures"
+    (prediction="given"): where they ignore the robot, one run of their own model from the
+    episode's start (dcmppi.bench.episodes.futures.obstacle_tracks) is their future at every step.
+
+    `at(step)`: (L, 1, N + 1, 2) their centres after step, step + 1, ..., step + N control
+    steps (one future each).
+    """
+
+    def __init__(self, spec: EpisodeSpec, N: int):
+        from dcmppi.bench.episodes.futures import obstacle_tracks, reset_exogenous
+
+        env = make_env(spec)
+        world = reset_exogenous(env, spec.task, "prediction 'given' (the true futures)")
+        steps = int(np.ceil(env.task.time_limit / env.control_timestep())) + N
+        tracks = [world.moving[:, :2], *obstacle_tracks(env, steps)]  # (steps + 1) x (L, 2)
+        self.tracks = np.stack(tracks, axis=1)[:, None]  # (L, 1, steps + 1, 2)
+        self.N = N
+
+    def at(self, step: int) -> np.ndarray:
+        return self.tracks[:, :, step : step + self.N + 1]
+
+
+def _wants_futures(controller) -> bool:
+    return "futures" in getattr(getattr(controller, "predictor", None), "inputs", ())
+
+
+class Episode:
+    """A running episode of `spec`, advanced one control step at a time.
+
+    Attributes: spec, env, controller, time_step (the latest dm_env TimeStep), poses (list of
+    (3,) robot poses x, y, yaw, the start's and one per step), path (array (steps + 1, 2) of
+    their positions), ctrl_s and env_s (seconds per step in the controller and in env.step),
+    diagnosis (`Diagnosis` of every step), metrics (`FieldMetrics` of every step).
+    """
+
+    def __init__(self, spec: EpisodeSpec):
+        self.start = time.perf_counter()
+        self.spec = spec
+        self.env = make_env(spec)
+        self.controller = controller_for(spec)
+        self.controller.reset()
+        self.time_step = self.env.reset()
+        wants = _wants_futures(self.controller)
+        self.true_futures = TrueFutures(spec, self.controller.N) if wants else None
+        self.poses = [self.time_step.observation["robot_pose"].copy()]
+        warm_up(spec, self.observation)
+        self.ctrl_s: list[float] = []
+        self.env_s: list[float] = []
+        self.diagnosis = Diagnosis()
+        self.metrics = FieldMetrics(self.env)
+
+    @property
+    def path(self) -> np.ndarray:
+        return np.asarray(self.poses)[:, :2]
+
+    @property
+    def done(self) -> bool:
+        return self.time_step.last()
+
+    @property
+    def observation(self) -> dict:
+        """The task's observation now, with the true futures where the controller takes them."""
+        observation = self.time_step.observation
+        if self.true_futures is None:
+            return observation
+        return {**observation, "moving_futures": self.true_futures.at(len(self.poses) - 1)}
+
+    def step(self) -> None:
+        """One control step: the controller acts on the observation, the task steps."""
+        observation = self.observation
+        t0 = time.perf_counter()
+        action = act(self.controller, observation)
+        t1 = time.perf_counter()
+        self.time_step = self.env.step(action)
+        t2 = time.perf_counter()
+        self.ctrl_s.append(t1 - t0)
+        self.env_s.append(t2 - t1)
+        self.diagnosis.read(self.controller, observation["robot_pose"])
+        self.poses.append(self.time_step.observation["robot_pose"].copy())
+        self.metrics.read(self.env.physics)
+
+    def result(self) -> dict:
+        """The metrics of the finished episode (see `run_episode`)."""
+        from dcmppi.tasks.barn import navigation_score
+        from dcmppi.tasks.world_base import GOAL_TOLERANCE
+
+        path = self.path
+        outcome = self.env.task.outcome
+        ctrl_ms = 1e3 * np.asarray(self.ctrl_s)
+        elapsed = float(self.env.physics.data.time)
+        optimal = getattr(self.env.task, "optimal_time", None)
+        length = float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
+        world = self.env.task.world
+        contact = self.env.physics.first_contact
+        kind = None
+        if outcome == "collision":
+            kind = "pedestrian" if contact["geom"].startswith("moving") else "static"
+        return {
+            "outcome": outcome,
+            "success": outcome == "goal",
+            "collision": outcome == "collision",
+            "collision_kind": kind,
+            "timeout": outcome == "time_limit",
+            "failure": outcome != "goal",
+            "steps": len(self.ctrl_s),
+            "time_to_goal": elapsed if outcome == "goal" else None,
+            "nav_score": None
+            if optimal is None
+            else navigation_score(outcome == "goal", elapsed, optimal),
+            "path_length": length,
+            "spl": spl(outcome == "goal", world.start[:2], world.goal, GOAL_TOLERANCE, length),
+            **self.metrics.result(),
+            "min_clearance": float(self.env.task.min_clearance),
+            "ctrl_ms_mean": float(ctrl_ms.mean()) if ctrl_ms.size else 0.0,
+            "ctrl_ms_p95": float(np.percentile(ctrl_ms, 95)) if ctrl_ms.size else 0.0,
+            "env_ms_mean": float(1e3 * np.mean(self.env_s)) if self.env_s else 0.0,
+            **self.diagnosis.result(),
+            "wall_s": time.perf_counter() - self.start,
+            "final_pose": [float(v) for v in self.poses[-1]],
+            "trace": encode_trace(self.poses),
+        }
+
+
+def run_episode(
+    spec: EpisodeSpec,
+    on_step: Callable[[Episode], None] | None = None,
+    keep_path: bool = False,
+) -> dict:
+    """Run `spec` to termination and return its metrics.
+
+    Args:
+      spec: the episode.
+      on_step: optional callback `on_step(episode)` after the reset and after every step
+        (videos use it); it must not change the episode.
+      keep_path: also return the robot's positions, array (steps + 1, 2), under "path".
+
+    Returns:
+      A dict: outcome ("goal" | "collision" | "left_map" | "time_limit"), success (the goal),
+      collision, collision_kind ("pedestrian": the first contact was a moving obstacle,
+      "static": a static one or a wall; None without collision), timeout (the time limit),
+      failure, steps, time_to_goal [s] (None unless reached), nav_score (BARN's navigation
+      score where the task gives an `optimal_time`, i.e. a BARN world; else None),
+      path_length [m], spl (success weighted by path length, see `spl`), the crowd metrics of
+      `FieldMetrics.result` (jerk_mean, min_ped_gap, personal_space_share, min_ttc,
+      ped_speed_loss), min_clearance [m], ctrl_ms_mean, ctrl_ms_p95 (controller time per
+      step, first-call costs excluded by `warm_up`), env_ms_mean, the diagnostics ess_mean,
+      clusters_mean, fallback_share, tube_deviation_p95 [m] (None where the controller records
+      none; see `Diagnosis`), wall_s, final_pose ([x, y, yaw] when it ended), trace (bytes: the
+      robot's pose at every control instant, see `encode_trace`; `dcmppi.bench.runs.replay` compares
+      it).
+    """
+    episode = Episode(spec)
+    if on_step is not None:
+        on_step(episode)
+    while not episode.done:
+        episode.step()
+        if on_step is not None:
+            on_step(episode)
+    result = episode.result()
+    if keep_path:
+        result["path"] = episode.path
+    return result
+
+
+def encode_trace(poses) -> bytes:
+    """Poses (n, 3) x, y, yaw as zlib-compressed little-endian float32 (a result's "trace")."""
+    return zlib.compress(np.asarray(poses, dtype="<f4").reshape(-1, 3).tobytes())
+
+
+def decode_trace(blob: bytes) -> np.ndarray:
+    """The poses (n, 3) float32 of an `encode_trace` blob."""
+    return np.frombuffer(zlib.decompress(blob), dtype="<f4").reshape(-1, 3)

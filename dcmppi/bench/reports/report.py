@@ -1,0 +1,590 @@
+"""Reports of a results database: paper-style tables, diagnostics, CSV, plots.
+
+Statistics: failure rates with 95 % Wilson score intervals; the crowd-navigation field's
+metrics (success, collisions with pedestrians or static obstacles, timeouts, time to goal, path
+length, SPL, jerk, gap to pedestrians, personal space, time-to-collision, pedestrians' speed
+loss) with 95 % intervals, '-' where a metric does not apply; paired comparisons of each row
+against the experiment's reference row on the same environments with McNemar's exact test on
+collisions; the paper's figures beside ours where the experiment gives them. Episodes with a
+navigation score (BARN worlds) get a table of their own: success rate (Wilson) and mean score
+with a 95 % percentile-bootstrap interval, and the paired score difference to the reference.
+A database that is still being written, or holds fewer episodes for some rows than for others
+or than the experiment asked for, gets a notice with the counts per row.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import datetime
+import os
+from pathlib import Path
+
+from dcmppi.bench.experiments import Experiment, Row
+from dcmppi.bench.results.database import TABLE_COLUMNS, ResultsDB, _canonical, writer_alive
+from dcmppi.bench.results.provenance import differences, short
+from dcmppi.bench.results.stats import (
+    field_metrics,
+    fmt,
+    noise_order,
+    paired,
+    paired_scores,
+    per_step,
+    row_order,
+    summarize,
+)
+
+METRICS_NOTE = (
+    "Per row over its finished episodes. Rates in % with 95 % Wilson intervals: success (the "
+    "goal), collisions whose first contact was a pedestrian (moving obstacle) or a static "
+    "obstacle or wall, timeouts (the time limit). Means with 95 % percentile-bootstrap intervals "
+    "(10,000 resamples): time to goal and path length over the successful episodes; SPL "
+    "(success x shortest / max(path, shortest), shortest = the straight line to within the goal "
+    "tolerance); mean jerk of the robot's planar velocity at the control rate; minimum "
+    "surface gap to a pedestrian; personal space, the share of the control instants with a "
+    "pedestrian's surface within 0.5 m of the robot's; pedestrians' speed loss, 1 - speed / "
+    "preferred speed of those within 2 m of the robot (reactive crowds only). Minimum "
+    "time-to-collision at constant velocities: the median over episodes with its bootstrap "
+    "interval (inf: never on a collision course). '-': not applicable (no pedestrians, or not "
+    "recorded by an older database)."
+)
+
+# The field's metrics table: (heading, field_metrics key, digits).
+METRICS_COLUMNS = (
+    ("Success %", "success", 1),
+    ("Pedestrian collisions %", "pedestrian", 1),
+    ("Static collisions %", "static", 1),
+    ("Timeouts %", "timeout", 1),
+    ("Time to goal [s]", "time_to_goal", 2),
+    ("Path [m]", "path_length", 2),
+    ("SPL", "spl", 3),
+    ("Jerk [m/s^3]", "jerk_mean", 1),
+    ("Min gap [m]", "min_ped_gap", 3),
+    ("Personal space %", "personal_space_share", 1),
+    ("Min TTC [s] (median)", "min_ttc", 2),
+    ("Speed loss %", "ped_speed_loss", 1),
+)
+
+SCORE_NOTE = (
+    "Success: the goal reached without collision within the time limit; 95 % Wilson interval, "
+    "the published success rate in parentheses. Navigation score (BARN): success x "
+    "optimal_time / clip(time, 2 optimal_time, 8 optimal_time), optimal_time = shortest "
+    "collision-free path length / 2 m/s (dcmppi.tasks.barn); mean over episodes with a 95 % "
+    "percentile-bootstrap interval (10,000 resamples). Score - reference: mean paired "
+    "difference over the environments both rows scored, bootstrap interval over environments."
+)
+
+
+def groups(rows: list[dict], exp: Experiment) -> list[tuple[str, str]]:
+    """(noise, label) of the rows, in the paper's noise order and the experiment's row order."""
+    noises = sorted({r["noise"] for r in rows}, key=noise_order)
+    labels = row_order({r["label"] for r in rows}, [row.label for row in exp.rows])
+    present = {(r["noise"], r["label"]) for r in rows}
+    return [(n, c) for n in noises for c in labels if (n, c) in present]
+
+
+def table(rows: list[dict], exp: Experiment, links: dict | None = None) -> str:
+    """The Markdown table in the layout of the paper's Table I, with goal, left-map and
+    time-limit counts and McNemar against the reference row; '-' for a row of errors only.
+    `links` {(noise, label): Markdown} adds a column of replays (report.md's gallery)."""
+    stats = summarize(rows)
+    ref = exp.reference
+    head = (
+        "| Noise | Row | Episodes | Goal % | Collisions (paper) | Failure % [95 % CI] (paper) "
+        "| Left map | Time limit | Controller ms/step (paper) |"
+    )
+    rule = "|---|---|---:|---:|---:|---|---:|---:|---:|"
+    if ref:
+        head += f" Collisions vs {ref}: McNemar |"
+        rule += "---|"
+    if links is not None:
+        head += " Replays |"
+        rule += "---|"
+    lines = [head, rule]
+    for noise, label in groups(rows, exp):
+        s = stats[(noise, label)]
+        paper = exp.paper(noise, label)
+        errors = f" (+{s['errors']} errors)" if s["errors"] else ""
+        ms = "-" if s["ctrl_ms"] is None else f"{s['ctrl_ms']:.2f}"
+        if s["episodes"]:
+            lo, hi = s["failure_ci_pct"]
+            goal, failure = f"{s['goal_pct']:.1f}", f"{s['failure_pct']:.1f} [{lo:.1f}, {hi:.1f}]"
+        else:  # errors only
+            goal = failure = "-"
+        line = (
+            f"| {noise} | {label} | {s['episodes']}{errors} | {goal} | "
+            f"{s['collisions']} ({fmt(paper.collisions)}) | "
+            f"{failure} ({fmt(paper.failure_pct)}) | "
+            f"{s['left_map']} | {s['time_limit']} | {ms} ({fmt(paper.ms_per_step)}) |"
+        )
+        if ref:
+            m = paired(rows, noise, label, ref) if label != ref else None
+            vs = (
+                f"{m['only_a']} vs {m['only_b']} discordant of {m['pairs']}, p = {m['p']:.3g}"
+                if m
+                else ""
+            )
+            line += f" {vs} |"
+        if links is not None:
+            line += f" {links.get((noise, label), '')} |"
+        lines.append(line)
+    return "\n".join(lines)
+
+
+def score_table(rows: list[dict], exp: Experiment) -> str:
+    """BARN's metrics per (noise, row): success % with its Wilson interval and the published
+    success rate (100 - the paper's failure %), the mean navigation score with its bootstrap
+    interval, and the paired score difference to the reference row. '' without scores."""
+    stats = summarize(rows)
+    scored = [g for g in groups(rows, exp) if stats[g]["scored"]]
+    if not scored:
+        return ""
+    ref = exp.reference
+    head = (
+        "| Noise | Row | Episodes | Success % [95 % CI] (published) | Navigation score [95 % CI] |"
+    )
+    rule = "|---|---|---:|---|---|"
+    if ref:
+        head += f" Score - {ref} [95 % CI] |"
+        rule += "---|"
+    lines = [head, rule]
+    for noise, label in scored:
+        s = stats[(noise, label)]
+        paper = exp.paper(noise, label).failure_pct
+        published = "-" if paper is None else f"{100 - paper:g}"
+        lo, hi = s["success_ci_pct"]
+        slo, shi = s["nav_score_ci"]
+        episodes = str(s["scored"])
+        if s["scored"] < s["episodes"]:
+            episodes += f" of {s['episodes']}"
+        line = (
+            f"| {noise} | {label} | {episodes} | {s['goal_pct']:.1f} [{lo:.1f}, {hi:.1f}] "
+            f"({published}) | {s['nav_score']:.3f} [{slo:.3f}, {shi:.3f}] |"
+        )
+        if ref:
+            d = paired_scores(rows, noise, label, ref) if label != ref else None
+            line += f" {d['diff']:+.3f} [{d['ci'][0]:+.3f}, {d['ci'][1]:+.3f}] |" if d else " |"
+        lines.append(line)
+    return "\n".join(lines)
+
+
+def metrics_table(rows: list[dict], exp: Experiment) -> str:
+    """The field's metrics per (noise, row) with 95 % intervals (see `field_metrics`); '-' for
+    the metrics that do not apply."""
+    stats = field_metrics(rows)
+    head = "| Noise | Row | Episodes | " + " | ".join(h for h, _, _ in METRICS_COLUMNS) + " |"
+    lines = [head, "|---|---|---:|" + "---|" * len(METRICS_COLUMNS)]
+    for noise, label in groups(rows, exp):
+        s = stats.get((noise, label))
+        if s is None:  # errors only
+            continue
+        cells = [_interval(s[key], digits) for _, key, digits in METRICS_COLUMNS]
+        lines.append(f"| {noise} | {label} | {s['episodes']} | {' | '.join(cells)} |")
+    return "\n".join(lines)
+
+
+def _interval(x, digits: int) -> str:
+    """'value [lo, hi]' of a (value, lo, hi, ...) tuple, '-' for None."""
+    if x is None:
+        return "-"
+    value, lo, hi = x[:3]
+    return f"{value:.{digits}f} [{lo:.{digits}f}, {hi:.{digits}f}]"
+
+
+def diagnostics_table(rows: list[dict], exp: Experiment) -> str:
+    """Controller diagnostics per (noise, row): '-' where the controller records none."""
+    stats = summarize(rows)
+    lines = [
+        "| Noise | Row | ESS per step | Clusters per step | Fallback to Alg. 1 % | "
+        "Tube deviation p95 [m] |",
+        "|---|---|---:|---:|---:|---:|",
+    ]
+    for noise, label in groups(rows, exp):
+        s = stats[(noise, label)]
+        cells = [_num(s["ess"], 1), _num(s["clusters"], 2), _num(s["fallback_pct"], 1)]
+        cells.append(_num(s["tube_deviation_p95"], 3))
+        lines.append(f"| {noise} | {label} | {' | '.join(cells)} |")
+    return "\n".join(lines)
+
+
+def _num(x, digits: int) -> str:
+    return "-" if x is None else f"{x:.{digits}f}"
+
+
+def speed_table(rows: list[dict], exp: Experiment) -> str:
+    """Where an episode's wall time goes, per row: ms per control step in the controller, in
+    env.step (MuJoCo physics and the task) and elsewhere (environment construction,
+    observation handling, diagnostics, bookkeeping), and seconds per episode."""
+    lines = [
+        "| Row | Episodes | Steps/episode | Controller ms/step | env.step ms/step | "
+        "Other ms/step | Wall s/episode |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for label in row_order({r["label"] for r in rows}, [row.label for row in exp.rows]):
+        ok = [r for r in rows if r["label"] == label and r["status"] == "ok"]
+        steps = sum(r["steps"] for r in ok)
+        if not steps:
+            continue
+        ctrl, env = per_step(ok, "ctrl_ms_mean"), per_step(ok, "env_ms_mean")
+        wall = sum(r["wall_s"] for r in ok)
+        other = 1e3 * wall / steps - ctrl - env
+        lines.append(
+            f"| {label} | {len(ok)} | {steps / len(ok):.0f} | {ctrl:.3f} | {env:.3f} | "
+            f"{other:.3f} | {wall / len(ok):.2f} |"
+        )
+    return "\n".join(lines)
+
+
+def notice(rows: list[dict], exp: Experiment, writers: list[tuple[str, dict]]) -> str:
+    """'' for a complete database; otherwise what is missing, with the counts per row.
+    `writers`: [(database name, writer mark)] of the databases that hold one."""
+    lines = []
+    for name, writer in writers:
+        started = datetime.datetime.fromtimestamp(writer["started"]).strftime("%Y-%m-%d %H:%M")
+        who = f"`dcmppi bench` (pid {writer['pid']} on {writer['host']}, started {started})"
+        of = f" ({name})" if name else ""
+        if writer_alive(writer):
+            lines.append(f"**Still being written**{of} by {who}: the figures below are partial.")
+        else:
+            lines.append(
+                f"**Interrupted**{of}: {who} stopped before finishing; rerun it to complete."
+            )
+    wanted = {(n, c) for n in exp.noises for c in exp.labels}
+    counts = {g: [0, 0] for g in wanted}
+    for r in rows:
+        counts.setdefault((r["noise"], r["label"]), [0, 0])[r["status"] != "ok"] += 1
+    expected = max([exp.episodes, *(ok for ok, _ in counts.values())])
+    if any(ok < expected for ok, _ in counts.values()):
+        order = groups([{"noise": n, "label": c} for n, c in counts], exp)
+        shown = ", ".join(
+            f"{n}/{c} {counts[(n, c)][0]}"
+            + (f" (+{counts[(n, c)][1]} errors)" if counts[(n, c)][1] else "")
+            for n, c in order
+        )
+        lines.append(
+            f"**Partial**: {expected} finished episodes per row expected, rows hold "
+            f"(noise/row finished): {shown}. Paired statistics use the environments both rows "
+            "finished."
+        )
+    return "\n\n".join(lines)
+
+
+# Columns that differ between two runs of one episode without its results differing.
+TIMING = ("ctrl_ms_mean", "ctrl_ms_p95", "env_ms_mean", "wall_s", "run_id", "error", "traceback")
+
+
+@dataclasses.dataclass
+class Loaded:
+    """The rows of one or several databases of one configuration (shards), merged: each row
+    gains "source" (the index of its database in `paths`)."""
+
+    paths: list[Path]
+    rows: list[dict]
+    exp: Experiment
+    writers: list[tuple[str | None, dict]]  # (database name where several, writer mark)
+    config: dict
+    runs: list[dict]  # ResultsDB.runs() of each database, each with "source"
+    conflicts: list[str]  # episodes two databases hold with different results
+
+
+def load(db_paths) -> Loaded:
+    """The rows of the databases `db_paths` (a path or a list), their latest experiment
+    definition, writer marks, merged configuration and runs. Databases of different
+    configurations are refused (ValueError, one line); an episode in several is reported
+    once (a finished row over an error row; differing results are listed as conflicts)."""
+    paths = [Path(db_paths)] if isinstance(db_paths, (str, os.PathLike)) else list(db_paths)
+    if not paths:
+        raise ValueError("no results database given; pass --db PATH (repeat it for shards)")
+    paths = [Path(p) for p in paths]
+    several = len(paths) > 1
+    merged, writers, runs, conflicts = {}, [], [], []
+    config = definition = None
+    for i, path in enumerate(paths):
+        db = ResultsDB(path)
+        try:
+            rows, writer, runs_i = db.rows(), db.writer, db.runs()
+            config = db.config if config is None else _combine(paths[0], config, path, db.config)
+            definition = definition or db.experiment
+        finally:
+            db.close()
+        if writer:
+            writers.append((path.name if several else None, writer))
+        runs += [{**run, "source": i} for run in runs_i]
+        for row in rows:
+            row["source"] = i
+            key = (row["noise"], row["label"], row["env_index"])
+            old = merged.setdefault(key, row)
+            if old is row or row["status"] != "ok":
+                continue
+            if old["status"] != "ok":
+                merged[key] = row
+                continue
+            differ = [
+                c
+                for c in TABLE_COLUMNS
+                if c not in TIMING and None not in (old[c], row[c]) and old[c] != row[c]
+            ]
+            if differ:
+                c = differ[0]
+                conflicts.append(
+                    f"{'/'.join(map(str, key))} ({c} {old[c]} in {paths[old['source']].name}, "
+                    f"{row[c]} in {path.name})"
+                )
+    rows = [merged[k] for k in sorted(merged)]
+    if not rows or definition is None:
+        raise ValueError(
+            f"{', '.join(map(str, paths))}: no episodes recorded yet; run `dcmppi bench` first"
+        )
+    exp = Experiment.from_dict(definition, f"{paths[0]} (stored experiment)", resolve=False)
+    older = tuple(  # rows of earlier runs that the latest one did not define
+        Row(label, row["controller"], row["params"])
+        for label, row in config["rows"].items()
+        if label not in {r.label for r in exp.rows}
+    )
+    exp = dataclasses.replace(exp, rows=exp.rows + older)
+    return Loaded(paths, rows, exp, writers, config, runs, conflicts)
+
+
+def _combine(first: Path, config: dict, path: Path, other: dict) -> dict:
+    """Two shards' configurations as one (rows of other labels are added); a ValueError names
+    what differs."""
+    differ = [k for k in sorted(config.keys() | other.keys()) if k != "rows"]
+    differ = [k for k in differ if config.get(k) != other.get(k)]
+    a, b = config.get("rows", {}), other.get("rows", {})
+    differ += [f"row {label!r}" for label in sorted(a.keys() & b.keys()) if a[label] != b[label]]
+    if differ:
+        raise ValueError(
+            f"{first} and {path} hold results of different configurations ({', '.join(differ)} "
+            "differ); report them separately"
+        )
+    return {**config, "rows": {**b, **a}}
+
+
+def provenance(data: Loaded) -> tuple[str, list[str], str]:
+    """(the terminal's provenance line, report.md's Provenance section, the notice that the
+    rows were recorded under several conditions ('' when not))."""
+    several = len(data.paths) > 1
+    recorded = [run for run in data.runs if run["provenance"] is not None]
+    name = {
+        (run["source"], run["run_id"]): (
+            f"{data.paths[run['source']].name} run {run['run_id']}" if several
+            else f"run {run['run_id']}"
+        )
+        for run in data.runs
+    }  # fmt: skip
+    conditions = []  # distinct provenances of the runs that own rows, in the order of the runs
+    state = {}  # (source, run_id) -> index into conditions
+    owning = {(r["source"], r["run_id"]) for r in data.rows}
+    for run in (run for run in recorded if (run["source"], run["run_id"]) in owning):
+        prov = run["provenance"]
+        found = next((j for j, c in enumerate(conditions) if not differences(c, prov)), None)
+        if found is None:
+            conditions.append(prov)
+            found = len(conditions) - 1
+        state[(run["source"], run["run_id"])] = found
+    unknown = [r for r in data.rows if (r["source"], r["run_id"]) not in state]
+    if not recorded:
+        line = "Provenance: not recorded (rows written before dcmppi recorded it, or without it)"
+        return line, ["## Provenance", "", line[len("Provenance: ") :].capitalize() + "."], ""
+    latest = recorded[-1]["provenance"]
+    libs = ", ".join(f"{k} {v}" for k, v in latest["libraries"].items() if v)
+    machine = _machine(latest)
+    line = f"Provenance: {short(latest)}; {libs}; {machine}"
+    md = ["## Provenance", ""]
+    for run in data.runs:
+        prov = run["provenance"]
+        started = _when(run["started"])
+        ended = _when(run["ended"]) if run["ended"] else "not ended (running or killed)"
+        text = f"- {name[(run['source'], run['run_id'])]}: {started} to {ended}, "
+        text += f"{run['episodes']} episodes; "
+        if prov is None:
+            md.append(text + "provenance not recorded")
+            continue
+        files = "; ".join(
+            f"{what} {entry['path']} sha256 {entry['sha256'][:12]}"
+            for what, entry in prov["files"].items()
+        )
+        libs_i = ", ".join(f"{k} {v}" for k, v in prov["libraries"].items() if v)
+        md.append(
+            text
+            + f"{short(prov)}; {libs_i}; {_machine(prov)} on {prov['host']}"
+            + (f"; files: {files}" if files else "")
+        )
+    md += [
+        "",
+        "Resolved parameters of the latest run (defaults included; the seed varies per "
+        f"environment): task {latest['task']['name']} `{_canonical(latest['task']['params'])}`",
+    ]
+    md += [f"- `{label}` ({row['controller']}): `{_canonical(row['params'])}`"
+           for label, row in latest["rows"].items()]  # fmt: skip
+    if len(conditions) + bool(unknown) <= 1:
+        return line, md, ""
+    what = differences(conditions[0], conditions[-1]) if len(conditions) > 1 else []
+    mixed = (
+        f"**Mixed**: these rows were recorded under {len(conditions) + bool(unknown)} different "
+        "conditions (a run extended the database with --allow-mixed"
+        + (f"; rows before provenance was recorded: {len(unknown)}" if unknown else "")
+        + ")"
+        + (f": {'; '.join(what[:3])}" if what else "")
+        + ". The versions per row:"
+    )
+    per_row = {}
+    for r in data.rows:
+        key = (r["noise"], r["label"])
+        run = (r["source"], r["run_id"])
+        per_row.setdefault(key, {}).setdefault(run, 0)
+        per_row[key][run] += 1
+    by_run = {(run["source"], run["run_id"]): run["provenance"] for run in data.runs}
+    table_lines = ["| Noise | Row | Runs: code (episodes) |", "|---|---|---|"]
+    for noise, label in groups(data.rows, data.exp):
+        cells = [
+            f"{name.get(run, 'no run')}: {short(by_run.get(run))} ({count})"
+            for run, count in sorted(per_row[(noise, label)].items(), key=str)
+        ]
+        table_lines.append(f"| {noise} | {label} | {'; '.join(cells)} |")
+    return line, md, mixed + "\n\n" + "\n".join(table_lines)
+
+
+def _machine(prov: dict) -> str:
+    """The CPU, its cores and, where recorded (since provenance recorded it), its kernels."""
+    kernels = f"; {prov['kernels']}" if prov.get("kernels") else ""
+    return f"{prov['cpu']} ({prov['cores']} cores{kernels})"
+
+
+def _when(t: float) -> str:
+    return datetime.datetime.fromtimestamp(t).strftime("%Y-%m-%d %H:%M")
+
+
+def errors_section(rows: list[dict]) -> list[str]:
+    """report.md's list of the error rows, grouped by error and traceback; [] without."""
+    errors = [r for r in rows if r["status"] == "error"]
+    if not errors:
+        return []
+    by = {}
+    for r in errors:
+        by.setdefault((r["error"], r["traceback"]), []).append(r)
+    md = ["## Errors", "", f"{len(errors)} episodes ended in an error (rerun to run them again):"]
+    for (error, trace), group in by.items():
+        keys = ", ".join(f"{r['noise']}/{r['label']}/{r['env_index']}" for r in group[:20])
+        keys += f" and {len(group) - 20} more" if len(group) > 20 else ""
+        md += ["", f"- {len(group)} x `{error}` in {keys}"]
+        if trace:
+            md += ["", "```", trace.rstrip("\n"), "```"]
+    return md
+
+
+def write_report(db_paths, out_dir: str | Path, plots: bool = True, gallery: int = 0) -> str:
+    """Write report.md, episodes.csv and the PNG plots into out_dir; return the text shown
+    on the terminal (notices, tables, provenance).
+
+    db_paths: a database, or a list of databases of one configuration (shards), merged.
+    gallery: with N > 0, the first N failures of each row and one success are replayed into
+      GIFs (dcmppi.bench.runs.replay.gallery) linked from report.md beside the row's numbers.
+    """
+    data = load(db_paths)
+    rows, exp, config = data.rows, data.exp, data.config
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "episodes.csv", "w", newline="") as f:
+        writer_csv = csv.DictWriter(f, fieldnames=TABLE_COLUMNS, extrasaction="ignore")
+        writer_csv.writeheader()
+        writer_csv.writerows(rows)
+    prov_line, prov_md, mixed = provenance(data)
+    conflicts = ""
+    if data.conflicts:
+        shown = ", ".join(data.conflicts[:5])
+        more = f" and {len(data.conflicts) - 5} more" if len(data.conflicts) > 5 else ""
+        conflicts = (
+            f"**Conflicting databases**: {len(data.conflicts)} episodes are recorded with "
+            f"different results in two of them (the first database's row is used): {shown}{more}"
+        )
+    warning = "\n\n".join(p for p in (notice(rows, exp, data.writers), conflicts, mixed) if p)
+    scores = score_table(rows, exp)
+    metrics = metrics_table(rows, exp)
+    n_errors = sum(r["status"] == "error" for r in rows)
+    errors_line = (
+        f"{n_errors} episodes ended in errors: their messages and tracebacks are listed in "
+        "report.md (Errors)"
+        if n_errors
+        else ""
+    )
+    text = "\n\n".join(
+        part
+        for part in (
+            warning,
+            table(rows, exp),
+            metrics,
+            scores,
+            diagnostics_table(rows, exp),
+            errors_line,
+            prov_line,
+        )
+        if part
+    )
+    links = None
+    if gallery > 0:
+        from dcmppi.bench.runs.replay import gallery as replay_gallery
+
+        found = replay_gallery(data.paths, out, gallery)
+        links = {
+            key: " ".join(f"[{index} {outcome}]({gif})" for index, outcome, gif in clips)
+            for key, clips in found.items()
+        }
+    ref = f"the reference row `{exp.reference}`" if exp.reference else "no reference row"
+    sources = ", ".join(f"`{p}`" for p in data.paths)
+    md = [
+        f"# dcmppi report: {exp.name} ({exp.task})",
+        "",
+        *([exp.description, ""] if exp.description else []),
+        *(
+            [f"Merged from {len(data.paths)} databases: {sources}.", ""]
+            if len(data.paths) > 1
+            else []
+        ),
+        *([warning, ""] if warning else []),
+        table(rows, exp, links),
+        "",
+        "Failure = any outcome but the goal (collision, left map, time limit). Intervals: 95 % "
+        f"Wilson score. McNemar: exact two-sided test on collisions against {ref}, over the "
+        "environments both rows finished; 'a vs b discordant' counts environments where only "
+        f"this row / only the reference collided. Paper figures in parentheses. {exp.paper_note}"
+        + (
+            " Replays: GIFs of the first failures of each row and one success (environment, "
+            "outcome)."
+            if links is not None
+            else ""
+        ),
+        "",
+        "## Navigation metrics",
+        "",
+        metrics,
+        "",
+        METRICS_NOTE,
+        "",
+        *(["## Navigation score", "", scores, "", SCORE_NOTE, ""] if scores else []),
+        "## Controller diagnostics",
+        "",
+        diagnostics_table(rows, exp),
+        "",
+        "ESS: effective sample size 1 / sum(w^2) of the weights that made the plan, mean over "
+        "steps. Clusters: DBSCAN clusters per step; fallback: share of steps with no cluster, "
+        "where Alg. 1 ran over all samples (clustered and dc only). Tube deviation: the 95th "
+        "percentile over an episode's steps of |real - nominal| position, mean over episodes.",
+        "",
+        "## Time per episode (wall clock of each worker)",
+        "",
+        speed_table(rows, exp),
+        "",
+        *([*errors_section(rows), ""] if n_errors else []),
+        *prov_md,
+        "",
+        f"Configuration: `{config}`",
+    ]
+    finished = [r for r in rows if r["status"] == "ok"]
+    if plots and finished:  # rows of errors only get no plot
+        from dcmppi.bench.reports import plots as plotting
+
+        for name in plotting.report_plots(finished, exp, out):
+            md += ["", f"![{name}]({name})"]
+    (out / "report.md").write_text("\n".join(md) + "\n")
+    return text

@@ -1,0 +1,13 @@
+"""The planners: the top layer of dcmppi.control.
+
+    controller.py    Controller: parameters, one step's frame, sampling, projection, rollouts
+    mppi.py          baseline MPPI (paper Alg. 1)
+    clustered.py     Clustered MPPI (Alg. 2): DBSCAN over the rollouts, Alg. 1 per cluster
+    dc.py            DC-MPPI (Alg. 3): Clustered MPPI with sampled obstacle futures
+    tube.py          Tube-MPPI (Williams et al. 2018)
+    temperature.py   lambda_="auto": the temperature chosen each step
+    diagnostics.py   what a step leaves for plots, videos and the bench
+    registry.py      the controllers by name (built-ins load on first use)
+
+May import anything of dcmppi.control; nothing below it imports a planner.
+"""

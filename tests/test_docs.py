@@ -1,6 +1,7 @@
-"""The README's examples run as written ("Benchmark your own controller": its files are written,
-its commands run; "Your own agent"; "Your own predictor"), CI runs the README's test command,
-and the links between README.md and docs/*.md reach existing files and headings."""
+"""The documentation's examples run as written: every code block of the README (the first, the
+install and test commands, is what CI runs), "Benchmark your own controller" with its files
+written and its commands run, and docs/extending.md's agent and predictor; the links between
+README.md, CHANGELOG.md and docs/*.md reach existing files and headings."""
 
 import json
 import os
@@ -14,12 +15,13 @@ import sys
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
+EXTENDING = "docs/extending.md"
 
 
-def section(heading):
-    """The README's text under `heading` (a '## ' or '### ' line) up to the next heading of
+def section(heading, page="README.md"):
+    """The text of `page` under `heading` (a '## ' or '### ' line) up to the next heading of
     that level or above."""
-    text = (ROOT / "README.md").read_text()
+    text = (ROOT / page).read_text()
     level = heading.split(" ")[0]
     start = text.index(f"\n{heading}\n")
     pattern = "\n#{2," + str(len(level)) + "} "
@@ -63,11 +65,11 @@ def test_your_own_agent_section_runs():
     the cylinder without touching it."""
     from dcmppi.control.agents import base
 
-    ((lang, code),) = blocks(section("### Your own agent"))
+    ((lang, code),) = blocks(section("## Your own agent", EXTENDING))
     assert lang == "python" and code.count("\n") <= 45
     namespace = {}
     try:
-        exec(compile(code, "README.md", "exec"), namespace)
+        exec(compile(code, EXTENDING, "exec"), namespace)
         np, dcmppi = namespace["np"], namespace["dcmppi"]
         assert namespace["u"].shape == (2,) and abs(namespace["u"]).max() <= 0.8
         for name in ("mppi", "clustered", "dc", "tube"):
@@ -87,11 +89,11 @@ def test_your_own_predictor_section_runs():
     crosses its way, where the same planner with obstacles seen frozen drives into it."""
     from dcmppi.control import predictors
 
-    ((lang, code),) = blocks(section("### Your own predictor"))
+    ((lang, code),) = blocks(section("## Your own predictor", EXTENDING))
     assert lang == "python" and code.count("\n") <= 40
     namespace = {}
     try:
-        exec(compile(code, "README.md", "exec"), namespace)
+        exec(compile(code, EXTENDING, "exec"), namespace)
         np, dcmppi = namespace["np"], namespace["dcmppi"]
         u, moving = namespace["u"], namespace["moving"]
         assert u.shape == (3,) and np.hypot(u[0], u[1]) <= 1.5 + 1e-9
@@ -124,7 +126,7 @@ def test_your_own_predictor_section_runs():
 def test_your_own_predictor_plans_in_run_and_bench(tmp_path):
     """The README's predictor saved as my_predictor.py, named module:Class as the README says:
     `dcmppi run` plans with it and `dcmppi bench` records it beside frozen obstacles."""
-    ((_, code),) = blocks(section("### Your own predictor"))
+    ((_, code),) = blocks(section("## Your own predictor", EXTENDING))
     (tmp_path / "my_predictor.py").write_text(code.split("\n\nctrl = ")[0] + "\n")
     (tmp_path / "exp.toml").write_text(
         'task = "crossing"\nnoises = ["none"]\nepisodes = 2\nbase_seed = 1\n'
@@ -194,7 +196,7 @@ def headings(path):
 
 
 def test_doc_links_reach_files_and_headings():
-    pages = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    pages = [ROOT / "README.md", ROOT / "CHANGELOG.md", *sorted((ROOT / "docs").glob("*.md"))]
     checked, broken = 0, []
     for page in pages:
         prose = re.sub(r"^```.*?^```$", "", page.read_text(), flags=re.S | re.M)
@@ -207,3 +209,36 @@ def test_doc_links_reach_files_and_headings():
             if not linked.exists() or (anchor and anchor not in headings(linked)):
                 broken.append(f"{page.relative_to(ROOT)}: {target}")
     assert checked >= 10 and not broken, broken
+
+
+def readme_blocks():
+    """(index, language, code) of every fenced block of the README."""
+    return [
+        (i, lang, code) for i, (lang, code) in enumerate(blocks((ROOT / "README.md").read_text()))
+    ]
+
+
+def test_every_readme_block_is_run_by_a_test():
+    """The first block is CI's (install, then the tests); python blocks run below (a block whose
+    first line names its file is written for the commands of its section); toml and sh blocks
+    are those of "Benchmark your own controller"."""
+    own = blocks(section("## Benchmark your own controller"))
+    for i, lang, code in readme_blocks():
+        named = re.match(r"# \S+\.(py|toml)\n", code)
+        assert i == 0 or (lang == "python" and not named) or (lang, code) in own, (i, code)
+
+
+@pytest.mark.parametrize(
+    "index",
+    [i for i, lang, code in readme_blocks() if lang == "python" and not code.startswith("# ")],
+)
+def test_readme_python_block_runs(index, tmp_path, monkeypatch):
+    """Each python block of the README runs as written, in a fresh namespace, in an empty
+    folder (what it writes stays there)."""
+    lang, code = blocks((ROOT / "README.md").read_text())[index]
+    if "gymnasium" in code:
+        pytest.importorskip("gymnasium", reason="the Gymnasium block needs dcmppi[gym]")
+    if "dcmppi.bench.load" in code:
+        pytest.importorskip("pandas", reason="dcmppi.bench.load needs dcmppi[pandas]")
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code, f"README.md block {index}", "exec"), {"__name__": "__readme__"})

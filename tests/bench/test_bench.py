@@ -100,6 +100,7 @@ def test_ray_executor_matches_local(tmp_path):
     assert deterministic(local) == deterministic(remote)
 
 
+@pytest.mark.slow
 def test_erroring_episode_is_recorded_and_the_run_goes_on(tmp_path):
     exp = tiny(episodes=1, rows=("mppi",), noises=("none",))
     ((key, good),) = exp.specs()

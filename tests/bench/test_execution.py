@@ -91,6 +91,7 @@ def episodes(*classes, envs=(0,)):
     ]
 
 
+@pytest.mark.slow
 def test_a_killed_worker_is_an_error_row_and_the_pool_goes_on(crashing):
     """The process pool used to end with BrokenProcessPool and record nothing more."""
     db = Results()
@@ -103,6 +104,7 @@ def test_a_killed_worker_is_an_error_row_and_the_pool_goes_on(crashing):
             assert "error" not in result and result["outcome"] == "time_limit"
 
 
+@pytest.mark.slow
 def test_sys_exit_and_exceptions_are_error_rows_with_tracebacks(crashing):
     """One worker: SystemExit used to end the bench (status 3, no message)."""
     db = Results()
@@ -114,6 +116,7 @@ def test_sys_exit_and_exceptions_are_error_rows_with_tracebacks(crashing):
     assert steady["outcome"] == "time_limit"
 
 
+@pytest.mark.slow
 def test_a_stuck_episode_times_out_and_the_run_goes_on(crashing):
     db = Results()
     start = time.monotonic()

@@ -146,6 +146,7 @@ print(json.dumps([kernels(), [r["sha1"] for r in fingerprint(cases, 40)]]))
 """
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(platform.machine() not in ("x86_64", "AMD64"), reason="x86 kernel names")
 def test_plans_do_not_depend_on_the_blas_kernels():
     """The same closed loops under OpenBLAS's kernels for this processor and under its plain SSE

@@ -137,6 +137,7 @@ def test_optimal_time_is_the_shortest_path_over_the_jackals_top_speed(tmp_path):
 # End to end: a run, its database and its report -----------------------------------------------
 
 
+@pytest.mark.slow
 def test_one_barn_episode_end_to_end(tmp_path):
     exp = (
         load_experiment("barn")

@@ -242,3 +242,41 @@ def test_readme_python_block_runs(index, tmp_path, monkeypatch):
         pytest.importorskip("pandas", reason="dcmppi.bench.load needs dcmppi[pandas]")
     monkeypatch.chdir(tmp_path)
     exec(compile(code, f"README.md block {index}", "exec"), {"__name__": "__readme__"})
+
+
+# History belongs in git and CHANGELOG.md: no "eighth round", "issue 24", "#26" or commit hash
+# in the README, docs/ or the code's docstrings and comments. A provenance line's content hash
+# ("code 8eadbbb8") is a measurement's label, not history, and stays.
+HISTORY = re.compile(
+    r"\b(first|second|third|fourth|fifth|sixth|seventh|eighth|ninth|tenth|eleventh|twelfth)"
+    r" round\b|\bround \d+\b|\bissues? #?\d+\b|(?<![\w/])#\d{2,}\b|\bcommits? [0-9a-f]{7,40}\b"
+    r"|(?<!code )(?<![\w./:-])(?=[0-9a-f]*\d)(?=[0-9a-f]*[a-f])[0-9a-f]{7,40}\b",
+    re.I,
+)
+
+
+def _history(text):
+    return sorted({m.group(0) for m in HISTORY.finditer(text)})
+
+
+def test_history_stays_out_of_docs_and_docstrings():
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    code = [p for folder in ("dcmppi", "tasks", "models") for p in (ROOT / folder).rglob("*")]
+    code = [p for p in code if p.suffix in (".py", ".toml", ".xml")]
+    found = {}
+    for path in pages + code:
+        hits = _history(path.read_text())
+        if hits:
+            found[str(path.relative_to(ROOT))] = hits
+    assert not found, f"history in docs or code (it belongs in CHANGELOG.md or git): {found}"
+
+
+def test_the_history_pattern_finds_what_it_should():
+    assert _history("the eighth round, issue 24, #26 and commit 341b7c4; e755496 too") == [
+        "#26",
+        "commit 341b7c4",
+        "e755496",
+        "eighth round",
+        "issue 24",
+    ]
+    assert not _history("round(x), rounds to float32, code 8eadbbb8, 0x7fffffff, 1e-7, 2048")

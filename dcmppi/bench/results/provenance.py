@@ -107,8 +107,8 @@ def _params(what: str, old: dict, new: dict) -> list[str]:
 
 
 def short(prov: dict | None) -> str:
-    """One line naming the code of a provenance: 'dcmppi 0.1.0 code 3fa2c1e2 (commit abc1234,
-    dirty)'."""
+    """One line naming the code of a provenance: 'dcmppi VERSION code SHA256[:8] (commit
+    SHA1[:7], dirty)'."""
     if not prov:
         return "unknown (recorded before provenance)"
     code = (prov.get("code_sha256") or "?")[:8]

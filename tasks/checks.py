@@ -3,13 +3,6 @@
 import numpy as np
 
 
-def check_behavior(behavior, valid):
-    """`behavior` if it is one of `valid` (names), else a ValueError listing them."""
-    if behavior not in valid:
-        raise ValueError(f"unknown behavior {behavior!r}; valid behaviors: {', '.join(valid)}")
-    return behavior
-
-
 def check_range(name, value, low=None, strict=False):
     """`value` as a pair of floats (lo, hi) with lo <= hi and low <= lo (low < lo if strict),
     else a ValueError naming `name`."""

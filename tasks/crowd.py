@@ -3,7 +3,7 @@
 from dcmppi.control.validation import positive
 
 from . import pedestrians, worlds
-from .checks import check_behavior, check_flag, check_range
+from .checks import check_flag, check_range
 from .navigation import Navigation
 from .world_base import BEHAVIOR_CONSTANT, OBSTACLE_SPEED_RANGE, OBSTACLE_TURN_RATE_RANGE
 
@@ -34,7 +34,8 @@ class Crowd(Navigation):
         **kwargs,
     ):
         n_obstacles = positive("n_obstacles", n_obstacles, integer=True, allow_zero=True)
-        self.behavior = check_behavior(behavior, pedestrians.BEHAVIORS)
+        pedestrians.BEHAVIOR.get(behavior)
+        self.behavior = behavior
         self.robot_visible = check_flag("robot_visible", robot_visible)
         super().__init__(**kwargs)
         walking = behavior != BEHAVIOR_CONSTANT  # pedestrians need a speed > 0

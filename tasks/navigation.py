@@ -19,11 +19,10 @@ from dcmppi.control.kernels.projection import bound
 from dcmppi.control.validation import positive
 
 from . import pedestrians, robots
-from .checks import check_behavior, check_flag
+from .checks import check_flag
 from .physics import Physics
 from .sampling import random_points
 from .world_base import (
-    BEHAVIOR_CONSTANT,
     GOAL_TOLERANCE,
     World,
     default_time_limit,
@@ -293,19 +292,19 @@ class Navigation(control.Task):
 class PedestrianNavigation(Navigation):
     """Navigation among pedestrians that walk to goals (the corridor and the square).
 
-    `behavior` is how they walk, one of pedestrians.BEHAVIORS but "constant" (the crowd's
-    Dubins obstacles); `robot_visible`: whether they react to the robot (default False, as
-    CrowdNav++). The robot is the `holonomic` agent by default. Time limit: by default
-    PEDESTRIAN_TIME_FACTOR x the time to drive the map's longer side at the agent's top speed,
-    room to wait for a gap and to detour, while an episode stuck behind pedestrians still ends.
+    `behavior` is how they walk, one of pedestrians.WALKING; `robot_visible`: whether they react
+    to the robot (default False, as CrowdNav++). The robot is the `holonomic` agent by default.
+    Time limit: by default PEDESTRIAN_TIME_FACTOR x the time to drive the map's longer side at
+    the agent's top speed, room to wait for a gap and to detour, while an episode stuck behind
+    pedestrians still ends.
     """
 
     default_agent = "holonomic"
 
     def __init__(self, n_pedestrians, pedestrian_radius, behavior, robot_visible, **kwargs):
         n_pedestrians = positive("n_pedestrians", n_pedestrians, integer=True, allow_zero=True)
-        walking = tuple(b for b in pedestrians.BEHAVIORS if b != BEHAVIOR_CONSTANT)
-        self.behavior = check_behavior(behavior, walking)
+        pedestrians.walking(behavior)
+        self.behavior = behavior
         self.robot_visible = check_flag("robot_visible", robot_visible)
         self.pedestrian_radius = positive("pedestrian_radius", pedestrian_radius)
         super().__init__(**kwargs)

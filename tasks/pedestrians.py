@@ -9,7 +9,8 @@ and a behaviour turns that into its velocity for the next control period:
                    ignores walls: worlds with walls refuse it)
     hl             navground's HL (Guzzi et al. 2013, a human-like heuristic)
 
-"constant" (BEHAVIORS' first) is today's Dubins arcs, arcs.DubinsObstacles, not this class.
+BEHAVIOR registers them by name with their settings (`Behavior`), and "constant", the crowd's
+Dubins arcs (arcs.DubinsObstacles, not this class).
 navground's behaviours get, each step, the other pedestrians within NEIGHBOR_RANGE (and the
 robot when visible) as neighbours, the walls as line obstacles and the desired velocity as their
 target; an omnidirectional kinematics caps their speed at MAX_SPEED_FACTOR x the preferred
@@ -20,18 +21,62 @@ A pedestrian within its radius of its goal gets the next from next_goal at the s
 next control period: a new goal, or a respawn somewhere else (the density stays).
 """
 
+import dataclasses
+
 import numpy as np
 
 from dcmppi.control.kernels import social
 from dcmppi.control.kernels.social import MAX_SPEED_FACTOR
+from dcmppi.control.registry import Registry
 
-BEHAVIORS = ("constant", "social_force", "orca", "hrvo", "hl")
-_NAVGROUND = {"orca": "ORCABehavior", "hrvo": "HRVOBehavior", "hl": "HLBehavior"}
+from .world_base import BEHAVIOR_CONSTANT
+
 NEIGHBOR_RANGE = 10.0  # [m] centre distance within which navground's behaviours see others
 MAX_NEIGHBORS = 10  # ORCA's and HRVO's nearest neighbours (CrowdNav's ORCA)
 ORCA_TIME_HORIZON = 5.0  # [s] for other agents and for walls (CrowdNav's ORCA)
 
-__all__ = ["BEHAVIORS", "MAX_SPEED_FACTOR", "Pedestrians"]
+
+@dataclasses.dataclass(frozen=True)
+class Behavior:
+    """How the moving obstacles move (an entry of BEHAVIOR).
+
+    navground: navground's behaviour class, or None: the compiled social force.
+    time_horizon: [s] for other agents and for walls (None: navground's default).
+    max_neighbors: the nearest neighbours it considers (None: navground's default).
+    sees_walls: False for a behaviour that ignores walls (worlds with walls refuse it).
+    relaxes: whether it relaxes from its actuated twist rather than from the velocity.
+    walks: False for the crowd's Dubins arcs (arcs.DubinsObstacles, not Pedestrians).
+    """
+
+    navground: str | None = None
+    time_horizon: float | None = None
+    max_neighbors: int | None = None
+    sees_walls: bool = True
+    relaxes: bool = False
+    walks: bool = True
+
+
+BEHAVIOR = Registry("pedestrian behaviour")
+BEHAVIOR.register(BEHAVIOR_CONSTANT)(Behavior(walks=False))
+BEHAVIOR.register("social_force")(Behavior())
+BEHAVIOR.register("orca")(Behavior("ORCABehavior", ORCA_TIME_HORIZON, MAX_NEIGHBORS))
+BEHAVIOR.register("hrvo")(Behavior("HRVOBehavior", None, MAX_NEIGHBORS, sees_walls=False))
+BEHAVIOR.register("hl")(Behavior("HLBehavior", relaxes=True))
+BEHAVIORS = tuple(BEHAVIOR.names())  # every task's `behavior`, "constant" included
+WALKING = tuple(b for b in BEHAVIORS if BEHAVIOR.get(b).walks)  # Pedestrians' own
+
+__all__ = ["BEHAVIOR", "BEHAVIORS", "MAX_SPEED_FACTOR", "WALKING", "Pedestrians", "walking"]
+
+
+def walking(behavior) -> Behavior:
+    """The Behavior of `behavior`, one of WALKING, else a ValueError naming the valid ones."""
+    entry = BEHAVIOR.get(behavior)
+    if not entry.walks:
+        raise ValueError(
+            f"behavior {behavior!r} moves with arcs.DubinsObstacles, not Pedestrians; walking "
+            f"behaviours: {', '.join(WALKING)}"
+        )
+    return entry
 
 
 class Pedestrians:
@@ -64,7 +109,7 @@ class Pedestrians:
     ):
         """
         Args:
-          behavior: one of BEHAVIORS but "constant".
+          behavior: one of WALKING.
           position, velocity, goal: (L, 2) at t = 0.
           pref_speed, radius: (L,) > 0.
           walls: (W, 4) segments x0, y0, x1, y1.
@@ -77,12 +122,7 @@ class Pedestrians:
           random: np.random.RandomState handed to next_goal.
           dt: control period [s].
         """
-        if behavior not in BEHAVIORS[1:]:
-            if behavior == BEHAVIORS[0]:
-                raise ValueError(
-                    "behavior 'constant' moves with arcs.DubinsObstacles, not Pedestrians"
-                )
-            raise ValueError(f"unknown behavior {behavior!r}; valid behaviors: {BEHAVIORS}")
+        self._spec = walking(behavior)
         self.behavior = behavior
         position = _array(position, "position", 2)
         n = len(position)
@@ -94,9 +134,10 @@ class Pedestrians:
         flat = np.flatnonzero(np.hypot(*(self._walls[:, 2:] - self._walls[:, :2]).T) == 0)
         if len(flat):
             raise ValueError(f"walls {flat} have zero length: give segments x0, y0, x1, y1")
-        if behavior == "hrvo" and len(self._walls):
+        if not self._spec.sees_walls and len(self._walls):
+            others = [b for b in WALKING if BEHAVIOR.get(b).sees_walls]
             raise ValueError(
-                "navground's HRVO ignores walls: in a world with walls use orca, hl or social_force"
+                f"{behavior} ignores walls: in a world with walls use one of {', '.join(others)}"
             )
         self._robot_radius = float(robot_radius)
         self._robot_visible = bool(robot_visible)
@@ -111,7 +152,7 @@ class Pedestrians:
             np.arctan2(to_goal[:, 1], to_goal[:, 0]),
         )
         self._max_speed = MAX_SPEED_FACTOR * self.pref_speed
-        self._behaviors = None if behavior == "social_force" else self._navground_behaviors()
+        self._behaviors = None if self._spec.navground is None else self._navground_behaviors()
 
     def advance(self, n, robot_xy, robot_velocity) -> np.ndarray:
         """Moves one control period in n substeps; returns the centres after each substep as
@@ -176,18 +217,19 @@ class Pedestrians:
                 f"behavior {self.behavior!r} needs navground: pip install navground"
             ) from error
         self._core = core
+        spec = self._spec
         lines = [core.LineSegment(w[:2], w[2:]) for w in self._walls]
         behaviors = []
         for i in range(len(self._pos)):
             kinematics = core.kinematics.OmnidirectionalKinematics(self._max_speed[i])
-            behavior = getattr(core.behaviors, _NAVGROUND[self.behavior])(
+            behavior = getattr(core.behaviors, spec.navground)(
                 kinematics=kinematics, radius=self.radius[i]
             )
-            if self.behavior == "orca":
-                behavior.time_horizon = ORCA_TIME_HORIZON
-                behavior.static_time_horizon = ORCA_TIME_HORIZON
-            if self.behavior in ("orca", "hrvo"):
-                behavior.max_number_of_neighbors = MAX_NEIGHBORS
+            if spec.time_horizon is not None:
+                behavior.time_horizon = spec.time_horizon
+                behavior.static_time_horizon = spec.time_horizon
+            if spec.max_neighbors is not None:
+                behavior.max_number_of_neighbors = spec.max_neighbors
             behavior.optimal_speed = self.pref_speed[i]
             state = behavior.environment_state
             state.line_obstacles = lines
@@ -204,7 +246,7 @@ class Pedestrians:
             robot = [core.Neighbor(robot_xy, self._robot_radius, robot_velocity)]
             near_robot = np.hypot(*(pos - robot_xy).T) < NEIGHBOR_RANGE
         stop = core.Target.Stop()
-        relaxes = self.behavior == "hl"
+        relaxes = self._spec.relaxes
         out = np.empty_like(vel)
         for i, (behavior, state) in enumerate(self._behaviors):
             behavior.position = pos[i]

@@ -44,7 +44,7 @@ class World:
       map_bounds: (4,) xmin, ymin, xmax, ymax.
       obstacle_model: (4,) known Gaussian v_mean, v_std, omega_mean, omega_std.
       behavior: how the moving cylinders move: "constant" (Dubins arcs, `DubinsObstacles`) or
-        a pedestrians' behaviour of tasks.pedestrians.BEHAVIORS.
+        another behaviour of tasks.pedestrians.BEHAVIOR (pedestrians that walk).
       moving_goal: (L, 2) the pedestrians' first goals (hidden; nan for "constant").
       moving_pref_speed: (L,) the pedestrians' preferred speeds [m/s] (hidden; nan for
         "constant").

@@ -122,14 +122,14 @@ def test_first_guesses():
 
 def test_registry_and_bad_input():
     assert set(AGENTS) <= set(agent_names())
-    with pytest.raises(ValueError, match="unknown agent 'boat'; valid agents: dubins"):
+    with pytest.raises(ValueError, match="unknown agent 'boat'; valid names: dubins"):
         make_agent("boat")
     with pytest.raises(ValueError, match="unknown parameter.*r_min.*'holonomic'.*v_max"):
         make_agent("holonomic", r_min=1.0)
     for bad in ({"v_max": float("nan")}, {"v_max": 0.0}, {"omega_max": "fast"}):
         with pytest.raises(ValueError, match=next(iter(bad))):
             make_agent("unicycle", **bad)
-    with pytest.raises(TypeError, match="Agent subclass"):
+    with pytest.raises(TypeError, match="agent .thing. must be a subclass of Agent"):
         register_agent("thing")(dict)
 
 
@@ -202,7 +202,7 @@ def test_a_registered_agent_plans_with_every_controller():
     finally:
         from dcmppi.control.agents import base
 
-        base._AGENTS.pop("point")
+        base.AGENTS.unregister("point")
 
 
 @pytest.mark.parametrize("agent", ["dubins", "unicycle", "holonomic"])

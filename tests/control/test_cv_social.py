@@ -173,8 +173,8 @@ def test_the_controller_gives_the_inputs_a_predictor_names():
         with pytest.raises(ValueError, match="inputs \\['lidar'\\].*valid inputs: velocity"):
             dcmppi.make_controller("mppi", prediction="recording")
     finally:
-        base._PREDICTORS.pop("recording", None)
-        base._PREDICTORS.pop("plain", None)
+        base.PREDICTORS.unregister("recording")
+        base.PREDICTORS.unregister("plain")
 
 
 def test_cv_std_must_not_be_negative():

@@ -215,7 +215,7 @@ def test_dc_rejects_bad_observations_and_parameters():
     ctrl.act(state, goal, None, two[:1], CROWD_MODEL)
     with pytest.raises(ValueError, match="number and order"):
         ctrl.act(state, goal, None, None, CROWD_MODEL)
-    with pytest.raises(ValueError, match="prediction"):
+    with pytest.raises(ValueError, match="unknown predictor 'kalman'"):
         dcmppi.make_controller("dc", prediction="kalman")
     with pytest.raises(ValueError, match="measurement_std must be > 0"):
         dcmppi.make_controller("dc", prediction="ekf", measurement_std=0.0)

@@ -143,8 +143,8 @@ def test_a_registered_predictor_plans_and_bad_ones_are_named():
         with pytest.raises(ValueError, match="unknown parameter.*gap.*prediction 'frozen'"):
             dcmppi.make_controller("mppi", gap=2.0)
     finally:
-        base._PREDICTORS.pop("ahead", None)
-    with pytest.raises(ValueError, match="unknown prediction 'crystal'; valid names: cv, ekf"):
+        base.PREDICTORS.unregister("ahead")
+    with pytest.raises(ValueError, match="unknown predictor 'crystal'; valid names: cv, ekf"):
         dcmppi.make_controller("dc", prediction="crystal")
     with pytest.raises(ValueError, match="no_such_module"):
         dcmppi.make_controller("dc", prediction="no_such_module:Thing")
@@ -161,7 +161,7 @@ def test_a_registered_predictor_plans_and_bad_ones_are_named():
         with pytest.raises(TypeError, match="must return a dcmppi.control.Prediction"):
             ctrl.act(np.zeros(3), np.array([6.0, 0.0]), None, CROSSING, MODEL)
     finally:
-        base._PREDICTORS.pop("lazy", None)
+        base.PREDICTORS.unregister("lazy")
 
 
 @pytest.mark.parametrize("prediction", ["frozen", "prior"])

@@ -152,10 +152,10 @@ def test_too_many_pedestrians_say_how_many_fit():
 @pytest.mark.parametrize(
     "name, kwargs, message",
     [
-        ("corridor", dict(behavior="waltz"), "unknown behavior 'waltz'; valid behaviors: social"),
-        ("corridor", dict(behavior="constant"), "valid behaviors: social_force, orca"),
-        ("square", dict(behavior="ORCA"), "unknown behavior 'ORCA'"),
-        ("crowd", dict(behavior="dance"), "valid behaviors: constant, social_force, orca"),
+        ("corridor", dict(behavior="waltz"), "unknown pedestrian behaviour 'waltz'; valid names"),
+        ("corridor", dict(behavior="constant"), "walking behaviours: hl, hrvo, orca, social_force"),
+        ("square", dict(behavior="ORCA"), "unknown pedestrian behaviour 'ORCA'"),
+        ("crowd", dict(behavior="dance"), "valid names: constant, hl, hrvo, orca, social_force"),
         ("corridor", dict(n_pedestrians=-1), "n_pedestrians must be >= 0"),
         ("corridor", dict(n_pedestrians=2.5), "n_pedestrians must be an integer"),
         ("corridor", dict(pedestrian_radius=0.0), "pedestrian_radius must be > 0"),
@@ -175,7 +175,7 @@ def test_bad_pedestrian_kwargs_name_the_problem(name, kwargs, message):
 
 
 def test_every_walking_behavior_is_valid_in_the_tasks():
-    walking = [b for b in pedestrians.BEHAVIORS if b != "constant"]
+    walking = pedestrians.WALKING
     assert {"social_force", "orca"} <= set(walking)
     for behavior in walking:
         assert tasks.load("corridor", {"behavior": behavior}).task.behavior == behavior

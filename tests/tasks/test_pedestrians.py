@@ -12,7 +12,7 @@ pytest.importorskip("navground.core")
 
 R = 0.3  # pedestrian radius [m]
 DT = 0.1
-WALKING = pedestrians.BEHAVIORS[1:]  # all but "constant"
+WALKING = pedestrians.WALKING
 AVOIDING = ("orca", "hrvo", "hl")  # navground's: no overlaps
 CORRIDOR = np.array([[-5.0, 0.0, 25.0, 0.0], [-5.0, 3.0, 25.0, 3.0]])
 
@@ -87,7 +87,10 @@ def test_walls_keep_a_pedestrian_inside_a_corridor(behavior):
 
 
 def test_hrvo_refuses_walls():
-    with pytest.raises(ValueError, match="HRVO ignores walls"):
+    with pytest.raises(
+        ValueError,
+        match="hrvo ignores walls: in a world with walls use one of hl, orca, social_force",
+    ):
         make("hrvo", [[0.0, 1.5]], [[1.0, 0.0]], [[20.0, 1.5]], 1.2, walls=CORRIDOR)
 
 
@@ -211,8 +214,8 @@ def test_bad_input_names_the_problem():
         pref_speed=1.2,
     )
     cases = [
-        (dict(behavior="walk"), "unknown behavior 'walk'; valid behaviors: .*social_force"),
-        (dict(behavior="constant"), "'constant' moves with arcs.DubinsObstacles"),
+        (dict(behavior="walk"), "unknown pedestrian behaviour 'walk'; valid names: .*social_force"),
+        (dict(behavior="constant"), "behavior 'constant' moves with arcs.DubinsObstacles"),
         (dict(radius=[0.3, 0.0]), "radius must be > 0; pedestrian 1 has 0.0"),
         (dict(pref_speed=[np.nan, 1.0]), "pref_speed must be > 0; pedestrian 0 has nan"),
         (dict(goal=np.zeros((3, 2))), r"goal must have shape \(2, 2\); got \(3, 2\)"),

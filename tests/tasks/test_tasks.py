@@ -234,7 +234,7 @@ def test_unknown_task_lists_valid_names():
         (dict(time_limit=0), "time_limit"),
         (dict(n_clusters=0), "n_clusters"),
         (dict(speed=1.0), "unknown task_kwargs"),
-        (dict(agent="tank"), "unknown agent 'tank'; valid agents: dubins, holonomic, unicycle"),
+        (dict(agent="tank"), "unknown agent 'tank'; valid names: dubins, holonomic, unicycle"),
         (dict(v_max=2.0), "unknown parameter.*v_max.*'dubins'"),
         (dict(agent="holonomic", v_max=-1.0), "v_max"),
         (dict(agent="holonomic", Sigma=[1.0, 1.0]), "one variance per control"),

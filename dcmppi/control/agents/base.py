@@ -25,34 +25,23 @@ import math
 
 import numpy as np
 
+from dcmppi.control.registry import Registry
 from dcmppi.control.validation import floats, positive
-
-_AGENTS: dict[str, type] = {}
 
 
 def register_agent(name):
     """Class decorator adding an Agent subclass to the registry under `name`."""
-
-    def add(cls):
-        if not (isinstance(cls, type) and issubclass(cls, Agent)):
-            raise TypeError(f"register_agent({name!r}) needs an Agent subclass, got {cls!r}")
-        _AGENTS[name] = cls
-        cls.name = name
-        return cls
-
-    return add
+    return AGENTS.register(name)
 
 
 def agent_names() -> list[str]:
-    """Registered agent names."""
-    return sorted(_AGENTS)
+    """Registered agent names, sorted."""
+    return AGENTS.names()
 
 
 def agent_class(name) -> type:
     """The registered class of agent `name`; a ValueError names the valid agents."""
-    if name not in _AGENTS:
-        raise ValueError(f"unknown agent {name!r}; valid agents: {', '.join(agent_names())}")
-    return _AGENTS[name]
+    return AGENTS.get(name)
 
 
 def make_agent(agent="dubins", **params) -> Agent:
@@ -79,7 +68,7 @@ def agent_param_names() -> list[str]:
     share), in registry order without repeats."""
     names = []
     for name in agent_names():
-        names += [p for p in _AGENTS[name].param_names if p not in names]
+        names += [p for p in AGENTS.get(name).param_names if p not in names]
     return names
 
 
@@ -232,3 +221,6 @@ class Agent:
     def __repr__(self):
         args = ", ".join(f"{k}={v!r}" for k, v in self.params.items())
         return f"{type(self).__name__}({args})"
+
+
+AGENTS = Registry("agent", base=Agent)

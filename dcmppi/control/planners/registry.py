@@ -5,45 +5,27 @@ imported; the registry imports them on first use, so `import dcmppi.control` (an
 which import its agents) does not load every planner, scikit-learn and scipy.
 """
 
-import importlib
-
 from dcmppi.control.agents import Agent, agent_class
 from dcmppi.control.predictors import predictor_class
+from dcmppi.control.registry import Registry
 
-_REGISTRY = {}
 BUILTIN = ("mppi", "clustered", "dc", "tube")
+CONTROLLERS = Registry("controller", builtins=[f"{__package__}.{m}" for m in BUILTIN])
 
 
 def register(name):
     """Class decorator adding a controller to the registry under `name`."""
-
-    def add(cls):
-        _REGISTRY[name] = cls
-        cls.name = name
-        return cls
-
-    return add
-
-
-def _load_builtins():
-    for module in BUILTIN:
-        importlib.import_module(f"{__package__}.{module}")
+    return CONTROLLERS.register(name)
 
 
 def controller_names():
-    """Registered controller names."""
-    _load_builtins()
-    return sorted(_REGISTRY)
+    """Registered controller names, sorted."""
+    return CONTROLLERS.names()
 
 
 def controller_class(name):
     """The registered class of controller `name`; a ValueError names the valid ones."""
-    _load_builtins()
-    if name not in _REGISTRY:
-        raise ValueError(
-            f"unknown controller {name!r}; valid names: {', '.join(controller_names())}"
-        )
-    return _REGISTRY[name]
+    return CONTROLLERS.get(name)
 
 
 def make_controller(name, **params):

@@ -7,7 +7,8 @@ import importlib
 
 import numpy as np
 
-_PREDICTORS: dict[str, type] = {}
+from dcmppi.control.registry import Registry
+
 # what a controller gives a predictor on top of the observation, for the names in its `inputs`:
 # velocity (L, 2) the moving obstacles' observed velocities (nan rows: not observed) or None;
 # robot_plan (N + 1, 3) the robot's states along the planner's warm start from the current state;
@@ -103,36 +104,30 @@ class Predictor:
         return Prediction(np.zeros((0, self.N + 1, 2)), np.zeros(0), self.alpha)
 
 
+PREDICTORS = Registry(
+    "predictor",
+    base=Predictor,
+    hint="or package.module:ClassName of your own Predictor subclass",
+)
+
+
 def register_predictor(name):
     """Class decorator adding a Predictor subclass to the registry under `name`."""
-
-    def add(cls):
-        if not (isinstance(cls, type) and issubclass(cls, Predictor)):
-            raise TypeError(f"predictor {name!r} must be a subclass of Predictor; got {cls!r}")
-        _PREDICTORS[name] = cls
-        cls.name = name
-        return cls
-
-    return add
+    return PREDICTORS.register(name)
 
 
 def predictor_names() -> list[str]:
-    """Registered predictor names."""
-    return sorted(_PREDICTORS)
+    """Registered predictor names, sorted."""
+    return PREDICTORS.names()
 
 
 def predictor_class(name) -> type:
     """The class of predictor `name`: a registered name, or `package.module:ClassName` of a
     Predictor subclass (imported here, so that every worker of a benchmark finds it); a
     ValueError names the valid ones."""
-    if name in _PREDICTORS:
-        return _PREDICTORS[name]
-    if isinstance(name, str) and ":" in name:
+    if isinstance(name, str) and ":" in name and name not in PREDICTORS:
         return _import(name)
-    raise ValueError(
-        f"unknown prediction {name!r}; valid names: {', '.join(predictor_names())}, or "
-        "package.module:ClassName of your own Predictor subclass"
-    )
+    return PREDICTORS.get(name)
 
 
 def _import(name):

@@ -1,8 +1,9 @@
 """`corridor`: a robot against a two-way pedestrian flow between two walls (issue 24; DRA-MPPI's
 scene)."""
 
+from dcmppi.control.validation import pair
+
 from . import pedestrian_worlds
-from .checks import check_range
 from .navigation import PedestrianNavigation
 from .world_base import map_bounds
 
@@ -39,7 +40,7 @@ class Corridor(PedestrianNavigation):
             robot_radius=robot_radius,
             **kwargs,
         )
-        self.speed_range = check_range("speed_range", speed_range, low=0.0, strict=True)
+        self.speed_range = pair("speed_range", speed_range, low=0.0, strict=True)
         self.speed = _mean_std(speed, self.speed_range)
         self.num_static = len(pedestrian_worlds.wall_cylinders(pedestrian_worlds.corridor_walls()))
 

@@ -1,9 +1,8 @@
 """`crowd`: 100 moving Dubins cylinders (paper Sec. IV-B; docs/design.md), or walkers."""
 
-from dcmppi.control.validation import positive
+from dcmppi.control.validation import flag, pair, positive
 
 from . import pedestrians, worlds
-from .checks import check_flag, check_range
 from .navigation import Navigation
 from .world_base import BEHAVIOR_CONSTANT, OBSTACLE_SPEED_RANGE, OBSTACLE_TURN_RATE_RANGE
 
@@ -36,11 +35,11 @@ class Crowd(Navigation):
         n_obstacles = positive("n_obstacles", n_obstacles, integer=True, allow_zero=True)
         pedestrians.BEHAVIOR.get(behavior)
         self.behavior = behavior
-        self.robot_visible = check_flag("robot_visible", robot_visible)
+        self.robot_visible = flag("robot_visible", robot_visible)
         super().__init__(**kwargs)
         walking = behavior != BEHAVIOR_CONSTANT  # pedestrians need a speed > 0
-        self.speed_range = check_range("speed_range", speed_range, 0.0, walking)
-        self.turn_rate_range = check_range("turn_rate_range", turn_rate_range)
+        self.speed_range = pair("speed_range", speed_range, 0.0, walking)
+        self.turn_rate_range = pair("turn_rate_range", turn_rate_range)
         self.obstacle_radius = positive("obstacle_radius", obstacle_radius)
         self.num_moving = n_obstacles
 

@@ -16,10 +16,9 @@ from dm_env import specs
 from dcmppi.control import defaults
 from dcmppi.control.agents import make_agent
 from dcmppi.control.kernels.projection import bound
-from dcmppi.control.validation import positive
+from dcmppi.control.validation import flag, positive
 
 from . import pedestrians, robots
-from .checks import check_flag
 from .physics import Physics
 from .sampling import random_points
 from .world_base import (
@@ -305,7 +304,7 @@ class PedestrianNavigation(Navigation):
         n_pedestrians = positive("n_pedestrians", n_pedestrians, integer=True, allow_zero=True)
         pedestrians.walking(behavior)
         self.behavior = behavior
-        self.robot_visible = check_flag("robot_visible", robot_visible)
+        self.robot_visible = flag("robot_visible", robot_visible)
         self.pedestrian_radius = positive("pedestrian_radius", pedestrian_radius)
         super().__init__(**kwargs)
         self.num_moving = n_pedestrians

@@ -28,6 +28,7 @@ import numpy as np
 from dcmppi.control.kernels import social
 from dcmppi.control.kernels.social import MAX_SPEED_FACTOR
 from dcmppi.control.registry import Registry
+from dcmppi.control.validation import array
 
 from .world_base import BEHAVIOR_CONSTANT
 
@@ -124,13 +125,14 @@ class Pedestrians:
         """
         self._spec = walking(behavior)
         self.behavior = behavior
-        position = _array(position, "position", 2)
+        position = array("position", position, ("L", 2), finite=True)
         n = len(position)
-        self.velocity = _array(velocity, "velocity", 2, n)
-        self.goal = _array(goal, "goal", 2, n)
+        self.velocity = array("velocity", velocity, (n, 2), finite=True)
+        self.goal = array("goal", goal, (n, 2), finite=True)
         self.pref_speed = _positive(pref_speed, "pref_speed", n)
         self.radius = _positive(radius, "radius", n)
-        self._walls = _array(np.zeros((0, 4)) if walls is None else walls, "walls", 4)
+        walls = np.zeros((0, 4)) if walls is None else walls
+        self._walls = array("walls", walls, ("W", 4), finite=True)
         flat = np.flatnonzero(np.hypot(*(self._walls[:, 2:] - self._walls[:, :2]).T) == 0)
         if len(flat):
             raise ValueError(f"walls {flat} have zero length: give segments x0, y0, x1, y1")
@@ -159,8 +161,8 @@ class Pedestrians:
         complex (n, L) (the same contract as arcs.DubinsObstacles.advance). robot_xy,
         robot_velocity (2,): the robot now (ignored unless robot_visible)."""
         if self._robot_visible:
-            robot_xy = _point(robot_xy, "robot_xy")
-            robot_velocity = _point(robot_velocity, "robot_velocity")
+            robot_xy = array("robot_xy", robot_xy, (2,), finite=True)
+            robot_velocity = array("robot_velocity", robot_velocity, (2,), finite=True)
         self._arrivals()
         start = self._pos
         desired = self._desired()
@@ -194,9 +196,9 @@ class Pedestrians:
         gap = np.hypot(*(self.goal - self._pos).T)
         for i in np.flatnonzero(gap <= self.radius):
             position, goal = self._next_goal(self._random, int(i), self._pos[i].copy())
-            self.goal[i] = _point(goal, "next_goal's goal")
+            self.goal[i] = array("next_goal's goal", goal, (2,), finite=True)
             if position is not None:
-                self._pos[i] = _point(position, "next_goal's position")
+                self._pos[i] = array("next_goal's position", position, (2,), finite=True)
                 self.z[i] = complex(*self._pos[i])
 
     def _desired(self):
@@ -271,32 +273,9 @@ class Pedestrians:
 _NOBODY = (np.zeros((0, 2)), np.zeros(0))  # no robot among the pushing agents
 
 
-def _array(value, name, columns, rows=None):
-    """value as a finite float64 (rows, columns) array, else a ValueError naming it."""
-    value = np.array(value, dtype=np.float64)
-    if value.ndim != 2 or value.shape[1] != columns or rows not in (None, len(value)):
-        expected = f"({'L' if rows is None else rows}, {columns})"
-        raise ValueError(f"{name} must have shape {expected}; got {value.shape}")
-    if not np.isfinite(value).all():
-        raise ValueError(
-            f"{name} must be finite; rows {np.flatnonzero(~np.isfinite(value).all(1))}"
-        )
-    return value
-
-
-def _point(value, name):
-    """value as a finite float64 (2,) array, else a ValueError naming it."""
-    value = np.asarray(value, dtype=np.float64)
-    if value.shape != (2,) or not np.isfinite(value).all():
-        raise ValueError(f"{name} must be a finite (2,) array; got {value!r}")
-    return value
-
-
 def _positive(value, name, rows):
     """value as a float64 (rows,) array > 0, else a ValueError naming the first bad index."""
-    value = np.array(value, dtype=np.float64)
-    if value.shape != (rows,):
-        raise ValueError(f"{name} must have shape ({rows},); got {value.shape}")
+    value = array(name, value, (rows,))
     bad = np.flatnonzero(~(np.isfinite(value) & (value > 0)))
     if len(bad):
         raise ValueError(f"{name} must be > 0; pedestrian {bad[0]} has {float(value[bad[0]])}")

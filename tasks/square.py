@@ -1,8 +1,9 @@
 """`square`: a robot crossing a square that pedestrians cross too (issue 24; C-Uniform's
 scene)."""
 
+from dcmppi.control.validation import pair
+
 from . import pedestrian_worlds
-from .checks import check_range
 from .navigation import PedestrianNavigation
 from .world_base import map_bounds
 
@@ -40,7 +41,7 @@ class Square(PedestrianNavigation):
             robot_radius=robot_radius,
             **kwargs,
         )
-        self.speed_range = check_range("speed_range", speed_range, low=0.0, strict=True)
+        self.speed_range = pair("speed_range", speed_range, low=0.0, strict=True)
 
     @property
     def map_bounds(self):

@@ -1,4 +1,5 @@
-"""The one check of a numeric parameter, shared by the controllers, the agents and the tasks."""
+"""The checks of parameters shared by the controllers, the agents, the predictors and the tasks:
+each returns the value checked or raises one ValueError naming the parameter."""
 
 import math
 import numbers
@@ -32,3 +33,44 @@ def floats(name, value):
         return np.asarray(value, dtype=float)
     except (TypeError, ValueError):
         raise ValueError(f"{name} must hold numbers; got {value!r}") from None
+
+
+def flag(name, value):
+    """`value` as a bool, or a ValueError naming `name` when it is not True or False."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be true or false; got {value!r}")
+    return bool(value)
+
+
+def pair(name, value, low=None, strict=False):
+    """`value` as a pair of floats (lo, hi) with lo <= hi and low <= lo (low < lo if strict),
+    else a ValueError naming `name`."""
+    try:
+        lo, hi = (float(x) for x in value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a pair (low, high), got {value!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        raise ValueError(f"{name} must be a pair of finite numbers (low, high), got {value!r}")
+    below = low is not None and (lo <= low if strict else lo < low)
+    if not lo <= hi or below:
+        bound = "" if low is None else f"{low} {'<' if strict else '<='} "
+        raise ValueError(f"{name} must satisfy {bound}low <= high, got {value!r}")
+    return lo, hi
+
+
+def array(name, value, shape, finite=False):
+    """`value` as a new C-contiguous float64 array of `shape`, or a ValueError naming `name`.
+
+    shape: sizes, or letters for any size ((L, 2): rows of two); finite=True: every entry must
+    be finite too (the message names the first index that is not).
+    """
+    value = np.array(floats(name, value), order="C")
+    if value.ndim != len(shape) or any(
+        isinstance(s, int) and s != n for s, n in zip(shape, value.shape, strict=True)
+    ):
+        expected = ", ".join(map(str, shape)) + ("," if len(shape) == 1 else "")
+        raise ValueError(f"{name} must have shape ({expected}); got {value.shape}")
+    if finite and not np.isfinite(value).all():
+        index = tuple(int(i) for i in np.argwhere(~np.isfinite(value))[0])
+        raise ValueError(f"{name} must be finite; {name}{list(index)} is {value[index]}")
+    return value

@@ -226,5 +226,5 @@ def test_bad_input_names_the_problem():
         with pytest.raises(ValueError, match=message):
             make(behavior, **{**ok, **change})
     peds = make("orca", **ok, visible=True)
-    with pytest.raises(ValueError, match="robot_xy must be a finite"):
+    with pytest.raises(ValueError, match="robot_xy must be finite"):
         peds.advance(1, np.array([np.nan, 0.0]), np.zeros(2))

@@ -30,6 +30,8 @@ import math
 import numba
 import numpy as np
 
+from dcmppi.control.validation import array, positive
+
 A = 10.0  # interaction strength [m/s^2]
 B = 0.3  # interaction range [m]
 TAU = 0.5  # relaxation time towards the desired velocity [s]
@@ -65,9 +67,9 @@ def step(
     """
     pos, vel, desired = _agents(pos, vel, desired, "(n, 2)")
     n = len(pos)
-    radius, max_speed = _per_agent(radius, "radius", (n,)), _per_agent(max_speed, "max_speed", (n,))
-    others_pos = _per_agent(others_pos, "others_pos", (-1, 2))
-    others_radius = _per_agent(others_radius, "others_radius", (len(others_pos),))
+    radius, max_speed = array("radius", radius, (n,)), array("max_speed", max_speed, (n,))
+    others_pos = array("others_pos", others_pos, ("m", 2))
+    others_radius = array("others_radius", others_radius, (len(others_pos),))
     walls = _walls(walls)
     dt, a, b, tau = _constants(dt, A, B, tau)
     new_pos, new_vel = np.empty_like(pos), np.empty_like(vel)
@@ -109,12 +111,12 @@ def rollout(
     """
     pos, vel, desired = _agents(pos, vel, desired, "(P, n, 2)")
     n = pos.shape[1]
-    radius, max_speed = _per_agent(radius, "radius", (n,)), _per_agent(max_speed, "max_speed", (n,))
+    radius, max_speed = array("radius", radius, (n,)), array("max_speed", max_speed, (n,))
     steps = int(steps)
     if steps < 0:
         raise ValueError(f"steps must be >= 0; got {steps}")
-    others_path = _per_agent(others_path, "others_path", (steps + 1, -1, 2))
-    others_radius = _per_agent(others_radius, "others_radius", (others_path.shape[1],))
+    others_path = array("others_path", others_path, (steps + 1, "m", 2))
+    others_radius = array("others_radius", others_radius, (others_path.shape[1],))
     walls = _walls(walls)
     dt, a, b, tau = _constants(dt, A, B, tau)
     return _rollout(
@@ -137,20 +139,9 @@ def _agents(pos, vel, desired, expected):
     return arrays
 
 
-def _per_agent(value, name, shape):
-    """value as a float64 array of `shape` (-1: any length)."""
-    value = np.ascontiguousarray(value, dtype=np.float64)
-    if value.ndim != len(shape) or any(
-        s not in (-1, v) for s, v in zip(shape, value.shape, strict=True)
-    ):
-        expected = str(tuple("m" if s == -1 else s for s in shape)).replace("'", "")
-        raise ValueError(f"{name} must have shape {expected}; got {value.shape}")
-    return value
-
-
 def _walls(walls):
     """walls as a float64 (W, 4) array of segments with distinct end points."""
-    walls = _per_agent(np.zeros((0, 4)) if walls is None else walls, "walls", (-1, 4))
+    walls = array("walls", np.zeros((0, 4)) if walls is None else walls, ("W", 4))
     flat = np.flatnonzero((walls[:, 0] == walls[:, 2]) & (walls[:, 1] == walls[:, 3]))
     if len(flat):
         raise ValueError(f"walls {flat} have zero length: give segments x0, y0, x1, y1")
@@ -158,12 +149,8 @@ def _walls(walls):
 
 
 def _constants(dt, a, b, tau):
-    """dt, A, B, tau as floats; each must be > 0."""
-    values = {"dt": dt, "A": a, "B": b, "tau": tau}
-    for name, value in values.items():
-        if not (np.isfinite(value) and value > 0):
-            raise ValueError(f"{name} must be a finite number > 0; got {value!r}")
-    return tuple(float(v) for v in values.values())
+    """dt, A, B, tau as floats; each must be a finite number > 0."""
+    return positive("dt", dt), positive("A", a), positive("B", b), positive("tau", tau)
 
 
 @numba.njit(cache=True)

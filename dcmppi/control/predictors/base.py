@@ -1,4 +1,4 @@
-"""The predictor interface, its result and the registry."""
+"""The predictor interface, its result, the registry and the check of the obstacle model."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ import importlib
 import numpy as np
 
 from dcmppi.control.registry import Registry
+from dcmppi.control.validation import floats
 
 # what a controller gives a predictor on top of the observation, for the names in its `inputs`:
 # velocity (L, 2) the moving obstacles' observed velocities (nan rows: not observed) or None;
@@ -45,6 +46,21 @@ class Prediction:
     def unit(self) -> float:
         """collision_cost, or weight when it is not given."""
         return self.weight if self.collision_cost is None else self.collision_cost
+
+
+def check_obstacle_model(obstacle_model, name):
+    """The (4,) array v_mean, v_std, omega_mean, omega_std, or a ValueError."""
+    if obstacle_model is None:
+        raise ValueError(
+            f"prediction {name!r} needs obstacle_model (v_mean, v_std, omega_mean, omega_std)"
+        )
+    model = floats("obstacle_model", obstacle_model)
+    if model.shape != (4,) or not np.isfinite(model).all() or model[1] < 0 or model[3] < 0:
+        raise ValueError(
+            f"obstacle_model must be (4,) finite v_mean, v_std >= 0, omega_mean, "
+            f"omega_std >= 0; got {obstacle_model}"
+        )
+    return model
 
 
 class Predictor:

@@ -11,14 +11,14 @@ arc as in "prior".
 
 import dataclasses
 
-from dcmppi.control.predictors.base import register_predictor
+from dcmppi.control.predictors.base import check_obstacle_model, register_predictor
 from dcmppi.control.predictors.filter import (
     MEASUREMENT_STD,
     PROCESS_STD,
     ObstacleFilter,
     check_process_std,
 )
-from dcmppi.control.predictors.prior import SampledFutures, check_obstacle_model
+from dcmppi.control.predictors.prior import SampledFutures
 from dcmppi.control.validation import positive
 
 

@@ -42,7 +42,8 @@ import numpy as np
 
 from dcmppi.control.kernels.dynamics import sinc, wrap_angle
 from dcmppi.control.kernels.normal import standard_normal
-from dcmppi.control.validation import floats
+from dcmppi.control.predictors.base import check_obstacle_model
+from dcmppi.control.validation import positive
 
 STATE = ("x", "y", "heading", "speed", "turn_rate")
 HEADINGS = 8  # heading components per obstacle
@@ -139,21 +140,11 @@ class ObstacleFilter:
     def __init__(
         self, obstacle_model, measurement_std, dt, headings=HEADINGS, process_std=PROCESS_STD
     ):
-        model = floats("obstacle_model", obstacle_model)
-        if model.shape != (4,) or not np.isfinite(model).all() or model[1] < 0 or model[3] < 0:
-            raise ValueError(
-                "obstacle_model must be (4,) finite v_mean, v_std >= 0, omega_mean, "
-                f"omega_std >= 0; got {obstacle_model}"
-            )
-        if not (np.isfinite(measurement_std) and measurement_std > 0):
-            raise ValueError(f"measurement_std must be finite and > 0 m; got {measurement_std}")
-        if not (np.isfinite(dt) and dt > 0) or not (isinstance(headings, int) and headings > 0):
-            raise ValueError(f"dt must be > 0 and headings an int > 0; got {dt}, {headings}")
+        self.model = check_obstacle_model(obstacle_model, "ekf")
+        self.measurement_std = positive("measurement_std", measurement_std)
+        self.dt = positive("dt", dt)
+        self.headings = positive("headings", headings, integer=True)
         process_std = np.array(check_process_std(process_std))
-        self.model = model
-        self.measurement_std = float(measurement_std)
-        self.dt = float(dt)
-        self.headings = headings
         self.process_std = process_std
         self._Q = np.diag(process_std**2 * self.dt)
         self.means = self.covs = self.log_weights = None

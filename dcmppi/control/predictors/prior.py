@@ -22,8 +22,12 @@ import numpy as np
 
 from dcmppi.control.kernels.dynamics import obstacle_futures
 from dcmppi.control.kernels.normal import standard_normal
-from dcmppi.control.predictors.base import Prediction, Predictor, register_predictor
-from dcmppi.control.validation import floats
+from dcmppi.control.predictors.base import (
+    Prediction,
+    Predictor,
+    check_obstacle_model,
+    register_predictor,
+)
 
 
 def sample_speeds(rng, obstacle_model, L, P):
@@ -34,21 +38,6 @@ def sample_speeds(rng, obstacle_model, L, P):
     v_mean, v_std, w_mean, w_std = obstacle_model
     z = standard_normal(rng, (2, L, P))
     return np.maximum(v_mean + v_std * z[0], 0.0), w_mean + w_std * z[1]
-
-
-def check_obstacle_model(obstacle_model, name="prior"):
-    """The (4,) array v_mean, v_std, omega_mean, omega_std, or a ValueError."""
-    if obstacle_model is None:
-        raise ValueError(
-            f"prediction {name!r} needs obstacle_model (v_mean, v_std, omega_mean, omega_std)"
-        )
-    model = floats("obstacle_model", obstacle_model)
-    if model.shape != (4,) or not np.isfinite(model).all() or model[1] < 0 or model[3] < 0:
-        raise ValueError(
-            f"obstacle_model must be (4,) finite v_mean, v_std >= 0, omega_mean, "
-            f"omega_std >= 0; got {obstacle_model}"
-        )
-    return model
 
 
 class SampledFutures(Predictor):

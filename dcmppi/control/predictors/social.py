@@ -21,6 +21,7 @@ import numpy as np
 from dcmppi.control.kernels import social as force
 from dcmppi.control.predictors.base import register_predictor
 from dcmppi.control.predictors.cv import ConstantVelocity
+from dcmppi.control.validation import flag
 
 
 @register_predictor("social")
@@ -35,9 +36,7 @@ class Social(ConstantVelocity):
     own_params = ("cv_std", "reactive")
 
     def __init__(self, *, reactive=True, **params):
-        if not isinstance(reactive, bool):
-            raise ValueError(f"reactive must be true or false; got {reactive!r}")
-        self.reactive = reactive
+        self.reactive = flag("reactive", reactive)
         super().__init__(**params)
 
     def predict(self, state, moving, obstacle_model, rng, velocity=None, robot_plan=None):

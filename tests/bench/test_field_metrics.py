@@ -88,13 +88,6 @@ def test_an_instant_is_read_in_one_pass_with_the_numpy_values_bit_for_bit():
             assert _bits(got) == _bits(_numpy_instant(*args)[:3]) + _bits((0.0, 0))
 
 
-def test_the_pairwise_sum_is_numpys():
-    rng = np.random.default_rng(3)
-    for n in range(0, 700):
-        a = rng.normal(size=n) * 10.0 ** rng.integers(-3, 4, n)
-        assert metrics._pairwise_sum(a) == np.sum(a)
-
-
 def test_the_clusters_are_the_distinct_labels_at_or_above_zero():
     rng = np.random.default_rng(5)
     for n in (1, 5, 500):

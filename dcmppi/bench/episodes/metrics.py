@@ -4,9 +4,9 @@ functions behind them (time to collision, jerk, SPL).
 
 FieldMetrics reads every instant in one compiled pass (`_instant`, with time_to_collision's
 `_ttc`) with the values of the numpy expressions its docstring gives, bit for bit
-(tests/bench/test_field_metrics.py compares them):
-the same products and sums in the same order, libm's hypot, the correctly rounded square root,
-numpy's pairwise summation for the speed loss, and numpy's arithmetic on a zero divisor.
+(tests/bench/test_field_metrics.py compares them): the same products and sums in the same
+order, libm's hypot, the correctly rounded square root, numpy's pairwise summation for the speed
+loss (dcmppi.control.kernels.sums.pairwise), and numpy's arithmetic on a zero divisor.
 """
 
 from __future__ import annotations
@@ -16,6 +16,8 @@ import numbers
 
 import numba
 import numpy as np
+
+from dcmppi.control.kernels.sums import pairwise
 
 
 class Diagnosis:
@@ -239,31 +241,4 @@ def _instant(moving, velocity, robot_xy, robot_v, robot_radius, pref):
         if len(pref) and gap < NEAR:
             losses[near] = 1.0 - math.hypot(velocity[j, 0], velocity[j, 1]) / pref[j]
             near += 1
-    return min_gap, personal, min_ttc, 0.0 + _pairwise_sum(losses[:near]), near
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _pairwise_sum(a):
-    """numpy's sum of a float64 array (n,): its pairwise summation, 8 partial sums in blocks of
-    up to 128, halves above."""
-    n = len(a)
-    if n < 8:
-        total = 0.0
-        for i in range(n):
-            total += a[i]
-        return total
-    if n <= 128:
-        r = a[:8].copy()
-        i = 8
-        while i < n - n % 8:
-            for k in range(8):
-                r[k] += a[i + k]
-            i += 8
-        total = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
-        while i < n:
-            total += a[i]
-            i += 1
-        return total
-    half = n // 2
-    half -= half % 8
-    return _pairwise_sum(a[:half]) + _pairwise_sum(a[half:])
+    return min_gap, personal, min_ttc, 0.0 + pairwise(losses[:near]), near

@@ -3,12 +3,24 @@
 import numpy as np
 import pytest
 
-from dcmppi.control.kernels.costs import (
-    OccupancyGrid,
-    collision_counts,
-    goal_distance,
-    static_costs,
-)
+from dcmppi.control.kernels.costs import OccupancyGrid, TrackIndex, goal_distance, static_costs
+
+
+def occupied(grid, x, y):
+    """Occupancy (...) bool of the points x, y (...): `count` of one step of many rollouts."""
+    x, y = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+    row = [np.ascontiguousarray(v.reshape(1, -1)) for v in (x, y)]
+    return grid.count(*row).reshape(x.shape) > 0
+
+
+def cells(grid, x, y):
+    """The occupancy of the cells int(clip((x - origin) / resolution, 0, last)) along each
+    axis, as numpy computes them."""
+    limit = np.array(grid.shape) - 1.0
+    inv = 1.0 / grid.resolution
+    ix = np.clip((x - grid.origin[0]) * inv, 0.0, limit[0]).astype(np.int64)
+    iy = np.clip((y - grid.origin[1]) * inv, 0.0, limit[1]).astype(np.int64)
+    return grid.grid[ix, iy]
 
 
 def test_grid_is_conservative_and_tight():
@@ -19,10 +31,10 @@ def test_grid_is_conservative_and_tight():
     p = rng.uniform(-5, 25, (200000, 2))
     d = np.hypot(p[:, None, 0] - static[:30, 0], p[:, None, 1] - static[:30, 1]) - static[:30, 2]
     clearance = d.min(axis=1) - 0.5
-    occ = grid.lookup(p[:, 0], p[:, 1])
+    occ = occupied(grid, p[:, 0], p[:, 1])
     assert occ[clearance <= 0].all()  # inside an inflated disc: always occupied
     assert not occ[clearance > 0.1 * np.sqrt(2)].any()  # beyond one cell diagonal: always free
-    assert not grid.lookup(np.array([-100.0, 100.0]), np.array([0.0, 50.0])).any()
+    assert not occupied(grid, np.array([-100.0, 100.0]), np.array([0.0, 50.0])).any()
 
 
 def test_grid_is_free_beyond_its_edges():
@@ -36,16 +48,18 @@ def test_grid_is_free_beyond_its_edges():
         along = np.concatenate([static[:, 0], static[:, 1]])[:, None] + np.linspace(-4, 4, 81)
         far = np.full_like(along, 1e4)
         for x, y in ((far, along), (-far, along), (along, far), (along, -far)):
-            assert not grid.lookup(x, y).any()
+            assert not occupied(grid, x, y).any()
 
 
-def test_grid_lookup_of_nan_is_free():
+def test_grid_cell_of_nan_is_free():
     grid = OccupancyGrid(np.array([[0.0, 0.0, 1.0]]), 0.5)
-    assert not grid.lookup(np.array([np.nan, 0.0, np.nan]), np.array([0.0, np.nan, np.nan])).any()
-    assert grid.lookup(np.array([0.0]), np.array([0.0]))[0]
+    assert not occupied(
+        grid, np.array([np.nan, 0.0, np.nan]), np.array([0.0, np.nan, np.nan])
+    ).any()
+    assert occupied(grid, np.array([0.0]), np.array([0.0]))[0]
 
 
-def test_grid_lookup_is_the_clipped_truncated_cell():
+def test_grid_cell_is_the_clipped_truncated_cell():
     """Lookups index the cell int(clip((x - origin) / resolution, 0, last)) along each axis,
     as numpy computes it, for points inside, on cell edges and far outside the grid."""
     rng = np.random.default_rng(3)
@@ -55,22 +69,19 @@ def test_grid_lookup_is_the_clipped_truncated_cell():
     far = rng.uniform(-1e12, 1e12, 2000)  # beyond 32-bit cell indices
     x = np.concatenate([far, rng.uniform(-5, 35, 20000), edges])
     y = rng.uniform(-5, 35, len(x))
-    limit = np.array(grid.shape) - 1.0
-    ix = np.clip((x - grid.origin[0]) * (1.0 / 0.1), 0.0, limit[0]).astype(np.int64)
-    iy = np.clip((y - grid.origin[1]) * (1.0 / 0.1), 0.0, limit[1]).astype(np.int64)
-    assert np.array_equal(grid.lookup(x, y), grid.grid[ix, iy])
+    assert np.array_equal(occupied(grid, x, y), cells(grid, x, y))
 
 
 def test_grid_ignores_padding_and_matches():
     static = np.array([[0.0, 0.0, 0.0], [3.0, 3.0, 1.0]])
     grid = OccupancyGrid(static, 0.5)
-    assert not grid.lookup(np.array([0.0]), np.array([0.0]))[0]
-    assert grid.lookup(np.array([3.0]), np.array([4.4]))[0]
+    assert not occupied(grid, np.array([0.0]), np.array([0.0]))[0]
+    assert occupied(grid, np.array([3.0]), np.array([4.4]))[0]
     assert grid.matches(static.copy()) and not grid.matches(static + 1)
     assert grid.matches(static.tolist()) and not grid.matches(static.reshape(3, 2))
     assert not grid.matches(static[:1]) and not grid.matches(None)
     assert not grid.matches(static, [-5.0, -5.0, 5.0, 5.0])
-    assert OccupancyGrid(None, 0.5).lookup(np.zeros(3), np.zeros(3)).sum() == 0
+    assert occupied(OccupancyGrid(None, 0.5), np.zeros(3), np.zeros(3)).sum() == 0
 
 
 def _numpy_grid(cyl, inflation, resolution, origin, shape):
@@ -130,16 +141,16 @@ def test_collision_counts_equal_brute_force():
                     np.hypot(x[i, r] - tracks[j, i, 0], y[i, r] - tracks[j, i, 1]) <= dist[j]
                 )
     assert brute.sum() > 0
-    np.testing.assert_array_equal(collision_counts(x, y, tracks, dist), brute)
+    np.testing.assert_array_equal(TrackIndex(tracks, dist).count(x, y), brute)
 
 
-def test_grid_count_is_lookup_summed_over_steps():
+def test_grid_count_sums_the_cells_over_steps():
     rng = np.random.default_rng(4)
     static = np.column_stack([rng.uniform(0, 20, (30, 2)), rng.uniform(0.2, 1.5, 30)])
     grid = OccupancyGrid(static, 0.5)
     x, y = rng.uniform(-5, 25, (2, 11, 40))  # inside and outside the grid
     counts = grid.count(x, y)
-    np.testing.assert_array_equal(counts, grid.lookup(x, y).sum(axis=0))
+    np.testing.assert_array_equal(counts, cells(grid, x, y).sum(axis=0))
     assert 0 < counts.sum() < x.size
     np.testing.assert_array_equal(OccupancyGrid(None, 0.5).count(x, y), np.zeros(40))
 
@@ -173,11 +184,11 @@ def test_map_bounds_make_everything_beyond_them_occupied():
     rng = np.random.default_rng(0)
     x, y = rng.uniform(-5, 15, 20000), rng.uniform(-5, 13, 20000)
     outside = (x < 0) | (x > 10) | (y < 0) | (y > 8)
-    assert grid.lookup(x, y)[outside].all()  # the robot's centre never leaves unnoticed
+    assert occupied(grid, x, y)[outside].all()  # the robot's centre never leaves unnoticed
     inner = (x > 0.1) & (x < 9.9) & (y > 0.1) & (y < 7.9) & (np.hypot(x - 5, y - 5) > 1.65)
-    assert not grid.lookup(x, y)[inner].any()  # at most one cell of the map is lost per edge
+    assert not occupied(grid, x, y)[inner].any()  # at most one cell of the map is lost per edge
     empty = OccupancyGrid(None, 0.5, bounds=bounds)
-    assert not empty.empty and empty.lookup(11.0, 4.0) and not empty.lookup(5.0, 4.0)
+    assert not empty.empty and occupied(empty, 11.0, 4.0) and not occupied(empty, 5.0, 4.0)
     assert grid.matches(np.array([[5.0, 5.0, 1.0]]), bounds)
     assert not grid.matches(np.array([[5.0, 5.0, 1.0]]), None)
     for bad in ([0, 0, 10], [0, 0, -1, 5], [0, np.nan, 1, 1]):

@@ -4,7 +4,7 @@ import numpy as np
 
 import dcmppi
 from dcmppi.control import Objective, Prediction
-from dcmppi.control.kernels.costs import OccupancyGrid, collision_counts, valid_cylinders
+from dcmppi.control.kernels.costs import OccupancyGrid, TrackIndex, valid_cylinders
 from dcmppi.control.kernels.dynamics import obstacle_futures, rollout_time_major
 from dcmppi.control.predictors.prior import sample_speeds
 
@@ -71,7 +71,7 @@ def test_unreachable_obstacles_are_skipped_exactly():
     # Skipping is exact: the far obstacle's own futures would hit no rollout.
     x = rollout_time_major(state, np.full((ctrl.N, 3), [-1.0, 0.0, 1.0]), ctrl.agent.v, ctrl.dt)
     far_track = np.broadcast_to(far[:, None, :2], (1, ctrl.N + 1, 2))
-    assert collision_counts(x[0], x[1], far_track, np.array([1.5])).sum() == 0
+    assert TrackIndex(far_track, np.array([1.5])).count(x[0], x[1]).sum() == 0
 
 
 def test_dc_needs_obstacle_model():

@@ -131,11 +131,6 @@ class OccupancyGrid:
             static is None or _same(static, self.source)
         )
 
-    def lookup(self, x, y):
-        """Occupancy at points. x, y: (...) coordinates [m]. Returns (...) bool."""
-        x, y = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
-        return _occupied_points(*self._cells, x.ravel(), y.ravel()).reshape(x.shape)
-
     def count(self, x, y):
         """Occupied states of every rollout. x, y: (N + 1, R) coordinates [m]. Returns (R,) int."""
         _check_steps(x, y)
@@ -176,12 +171,6 @@ def _check_bounds(bounds):
 
 
 @numba.njit(inline="always")
-def _occupied(flat, columns, origin, limit, inv, x, y):
-    """Whether the cell of point (x, y) is occupied; points outside fall on the free border."""
-    return flat[_index(x, origin[0], inv, limit[0]) * columns + _index(y, origin[1], inv, limit[1])]
-
-
-@numba.njit(inline="always")
 def _index(x, origin, inv, limit):
     """Cell index of coordinate x clipped to [0, limit]; nan goes to 0 (selects, not min/max,
     whose nan handling depends on the argument order). Truncated to 32 bits, then widened: the
@@ -190,15 +179,6 @@ def _index(x, origin, inv, limit):
     v = (x - origin) * inv
     v = v if v > 0.0 else 0.0
     return np.int64(np.int32(v if v < limit else limit))
-
-
-@numba.njit(cache=True)
-def _occupied_points(flat, columns, origin, limit, inv, x, y):
-    """_occupied at every point of x, y (n,). Returns (n,) bool."""
-    out = np.empty(len(x), dtype=np.bool_)
-    for k in range(len(x)):
-        out[k] = _occupied(flat, columns, origin, limit, inv, x[k], y[k])
-    return out
 
 
 @numba.njit(cache=True)
@@ -283,21 +263,6 @@ def _goal_distance(x, y, gx, gy, cols):
             dy = yi[k] - gy
             J[k] += np.sqrt(dx * dx + dy * dy)
     return J
-
-
-def collision_counts(x, y, tracks, distance):
-    """Number of (step, obstacle track) pairs in collision for every rollout.
-
-    A step i collides with track j when |p_i - o_j(t_i)| <= distance_j (see TrackIndex).
-
-    Args:
-      x, y: (N + 1, R) rollout positions.
-      tracks: (T, N + 1, 2) obstacle positions per step.
-      distance: (T,) collision distance (robot radius + obstacle radius) of each track.
-    Returns:
-      (R,) int counts.
-    """
-    return TrackIndex(tracks, distance).count(x, y)
 
 
 class TrackIndex:

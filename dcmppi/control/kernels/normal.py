@@ -11,8 +11,6 @@ The PCG64 path reads numpy's PCG64 memory through ctypes and numba's private zig
 at first use it draws on a throwaway generator and compares values and state after with
 numpy's; on a mismatch or an error it warns once and PCG64s take numba's path from then on.
 Either way the values are numpy's and the generator's state ends where numpy's would (tests).
-`scaled_normal` scales the draws (and adds an offset) as they are drawn, as the controllers'
-perturbations need, instead of two more passes over them.
 """
 
 import ctypes
@@ -52,7 +50,7 @@ def standard_normal(rng, shape):
     size = math.prod(shape)
     state = _pcg64_state(rng.bit_generator)
     if state is not None and size >= PCG64_MIN_SIZE:
-        return _pcg64_normals(state, 1, _ONE, _NO_OFFSET, size).reshape(shape)
+        return _pcg64_normals(state, size).reshape(shape)
     if size < NUMBA_MIN_SIZE:
         return rng.standard_normal(shape)
     return _standard_normal(rng, shape)
@@ -61,49 +59,6 @@ def standard_normal(rng, shape):
 @numba.njit(cache=True)
 def _standard_normal(rng, shape):
     return rng.standard_normal(shape)
-
-
-def scaled_normal(rng, shape, scale, add=None):
-    """z * scale[:, None] (+ add) for z = rng.standard_normal(shape), in one pass: the values of
-    those numpy operations (each product and sum rounded alike) and the same generator state.
-
-    Args:
-      rng: np.random.Generator. shape: (n, nu, K). scale: (nu,). add: (nu, K) or None.
-    Returns:
-      (n, nu, K) float64.
-    """
-    scale = np.asarray(scale, dtype=float)
-    size, (n, _, k) = math.prod(shape), shape
-    state = _pcg64_state(rng.bit_generator)
-    if state is None and size < NUMBA_MIN_SIZE or state is not None and size < PCG64_MIN_SIZE:
-        z = rng.standard_normal(shape)
-        z *= scale[:, None]
-        if add is not None:
-            z += add
-        return z
-    add = np.zeros((0, k)) if add is None else add
-    if state is None:
-        return _scaled_normal(rng, n, scale, add, k)
-    return _pcg64_normals(state, n, scale, add, k)
-
-
-@numba.njit(cache=True)
-def _scaled_normal(rng, n, scale, add, k):
-    """(n, nu, k): rng's scalar draws in C order (as its array draw), times scale[c], plus
-    add[c, j] when add is (nu, k), nothing when it is (0, k)."""
-    nu = len(scale)
-    out = np.empty((n, nu, k))
-    for i in range(n):
-        for c in range(nu):
-            s, o = scale[c], out[i, c]
-            if len(add):
-                a = add[c]
-                for j in range(k):
-                    o[j] = rng.standard_normal() * s + a[j]
-            else:
-                for j in range(k):
-                    o[j] = rng.standard_normal() * s
-    return out
 
 
 # --- PCG64 (np.random.default_rng's bit generator) inline ---------------------------------------
@@ -118,7 +73,6 @@ def _scaled_normal(rng, n, scale, add, k):
 _PCG64_MULTIPLIER = (
     0x2360ED051FC65DA44385DF649FCCF645  # numpy's pcg64.h, PCG_DEFAULT_MULTIPLIER_128
 )
-_ONE, _NO_OFFSET = np.ones(1), np.zeros((0, 1))
 _last_pcg64 = [None, None]  # the last PCG64 seen and the view of its state (or None)
 _inline = []  # [True] once the inline draws passed _inline_check, [False] once they failed it
 # The check's draw: this seed's 20 000 normals reach the ziggurat's tail and wedges (a test).
@@ -174,7 +128,7 @@ def _inline_check():
         view = _read_pcg64_state(ours.bit_generator)
         if view is None:
             return "numpy's PCG64 state is not where ctypes reads it"
-        x = _pcg64_normals(view, 1, _ONE, _NO_OFFSET, _CHECK_SIZE).ravel()
+        x = _pcg64_normals(view, _CHECK_SIZE)
         if not np.array_equal(x, numpys.standard_normal(_CHECK_SIZE)):
             return "a check draw differs from numpy's"
         if ours.bit_generator.state != numpys.bit_generator.state:
@@ -257,22 +211,13 @@ def _pcg64_normal(lo, hi, inc_lo, inc_hi):
 
 
 @numba.njit(cache=True)
-def _pcg64_normals(state, n, scale, add, k):
-    """_scaled_normal's draws from the PCG64 state view (4,) uint64, which ends advanced."""
+def _pcg64_normals(state, size):
+    """`size` standard normals (size,) from the PCG64 state view (4,) uint64, which ends
+    advanced."""
     lo, hi, inc_lo, inc_hi = state[0], state[1], state[2], state[3]
-    nu = len(scale)
-    out = np.empty((n, nu, k))
-    for i in range(n):
-        for c in range(nu):
-            s, o = scale[c], out[i, c]
-            if len(add):
-                a = add[c]
-                for j in range(k):
-                    x, lo, hi = _pcg64_normal(lo, hi, inc_lo, inc_hi)
-                    o[j] = x * s + a[j]
-            else:
-                for j in range(k):
-                    x, lo, hi = _pcg64_normal(lo, hi, inc_lo, inc_hi)
-                    o[j] = x * s
+    out = np.empty(size)
+    for j in range(size):
+        x, lo, hi = _pcg64_normal(lo, hi, inc_lo, inc_hi)
+        out[j] = x
     state[0], state[1] = lo, hi
     return out

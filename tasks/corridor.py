@@ -1,5 +1,4 @@
-"""`corridor`: a robot against a two-way pedestrian flow between two walls (issue 24; DRA-MPPI's
-scene)."""
+"""`corridor`: a robot against a two-way pedestrian flow between two walls (DRA-MPPI's scene)."""
 
 from dcmppi.control.validation import pair
 
@@ -17,8 +16,8 @@ class Corridor(PedestrianNavigation):
     normal (mean, std) `speed` clipped to `speed_range`; the observation's `obstacle_model` is
     that normal's speeds with turn rates N(0, pedestrian_worlds.PEDESTRIAN_TURN_RATE_STD^2).
     Walls are static cylinder rows in the observation's static_obstacles (touching them is a
-    collision). The robot is holonomic (v_max 1.5 m/s) of radius 0.3 m by default, the issue's
-    prototype; see `PedestrianNavigation` for `behavior`, `robot_visible` and the time limit.
+    collision). The robot is holonomic (v_max 1.5 m/s) of radius 0.3 m by default; see
+    `PedestrianNavigation` for `behavior`, `robot_visible` and the time limit.
     """
 
     def __init__(

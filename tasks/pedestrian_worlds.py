@@ -1,4 +1,4 @@
-"""The pedestrian worlds as plain numpy (issue 24): the corridor, the square, and walls.
+"""The pedestrian worlds as plain numpy: the corridor, the square, and walls.
 
 Pedestrians walk to goals (tasks.pedestrians); a world gives their first goals and preferred
 speeds. Walls are segments (W, 4) for the pedestrians' forces and rows of static cylinders
@@ -12,7 +12,7 @@ import numpy as np
 from .sampling import PEDESTRIAN_START_GAP, heading_to, place_discs, random_points
 from .world_base import World, make_world, map_bounds, uniform_mean_std
 
-# Pedestrian worlds (issue 24; docs/design.md, Experiments).
+# Pedestrian worlds (docs/design.md, Experiments).
 PEDESTRIAN_RADIUS = 0.3  # [m]
 PEDESTRIAN_START_CLEARANCE = 1.0  # [m] surface gap between any pedestrian and the robot at t = 0
 # Std of the turn rate in the pedestrian worlds' obstacle_model, so that the `prior` predictor
@@ -98,7 +98,7 @@ def generate_corridor(
     robot_visible=False,
     size=CORRIDOR_SIZE,
 ) -> World:
-    """The corridor (issue 24, DRA-MPPI's scene): walls at y = 0 and y = width, pedestrians in
+    """The corridor (DRA-MPPI's scene): walls at y = 0 and y = width, pedestrians in
     both directions.
 
     The robot starts at x = CORRIDOR_START_X, its goal is at x = CORRIDOR_GOAL_X, both at a
@@ -141,7 +141,7 @@ def generate_square(
     robot_visible=False,
     size=SQUARE_SIZE,
 ) -> World:
-    """The square (issue 24, C-Uniform's scene): pedestrians crossing between random points.
+    """The square (C-Uniform's scene): pedestrians crossing between random points.
 
     The robot starts SQUARE_EDGE inside a random side of the map, at a uniform point along
     it, facing its goal, which lies SQUARE_EDGE inside the opposite side. Pedestrians stand

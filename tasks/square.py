@@ -1,5 +1,4 @@
-"""`square`: a robot crossing a square that pedestrians cross too (issue 24; C-Uniform's
-scene)."""
+"""`square`: a robot crossing a square that pedestrians cross too (C-Uniform's scene)."""
 
 from dcmppi.control.validation import pair
 

@@ -20,7 +20,7 @@ from dcmppi.control.kernels.libm import sincos
 
 _SINC_SERIES_MAX = 0.1  # |a| below which sinc(a) uses its series (error < 1e-13)
 # the series' last coefficients as products: a division per state-step costs more than the rest
-# of the series (docs/performance.md, eighth round)
+# of the series
 _INV_5040, _INV_40320, _INV_362880 = 1.0 / 5040.0, 1.0 / 40320.0, 1.0 / 362880.0
 
 

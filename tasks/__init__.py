@@ -14,18 +14,18 @@ plus its own kwargs; tasks with pedestrians (`crowd`, `corridor`, `square`) take
 What lives here, the worlds as plain numpy: `world_base` (the `World` contract, the map,
 clearance, impossible worlds), `sampling` (starts, goals, discs), `worlds` (the forest and the
 crowd), `pedestrian_worlds` (the corridor, the square, walls), `arcs` (the crowd's Dubins
-motion), `pedestrians` (walkers: social force, ORCA, ...); in MuJoCo: `physics` (the plant
-`Physics`: obstacle slots, contacts, clearance), `navigation` (the task `Navigation` and
-`PedestrianNavigation`: physics timestep, noise profiles, termination), `checks` (task kwargs),
-one module per task family (`forest`, `crowd`, `corridor`, `square`, `two_valley`, `layout`),
+motion), `pedestrians` (walkers: social force, ORCA, ...; the behaviours by name); in MuJoCo:
+`physics` (the plant `Physics`: obstacle slots, contacts, clearance), `navigation` (the task
+`Navigation` and `PedestrianNavigation`: physics timestep, noise profiles, termination), one
+module per task family (`forest`, `crowd`, `corridor`, `square`, `two_valley`, `layout`),
 `robots` (agent -> actuators), `barn` (BARN's score).
 
 May import MuJoCo, dm_control, numpy, navground and, of the rest of dcmppi, only the robot
-models dcmppi.control.agents (with dcmppi.control.kernels.dynamics, their motion), the social force
-dcmppi.control.kernels.social (compiled, shared with the `social` predictor),
-dcmppi.control.defaults and dcmppi.control.validation: no controller, nothing of dcmppi.bench or
-dcmppi.render (tests/test_architecture.py). Installed, this folder is the subpackage dcmppi.tasks
-(see dcmppi/__init__.py).
+models dcmppi.control.agents (with dcmppi.control.kernels.dynamics, their motion), the social
+force dcmppi.control.kernels.social (compiled, shared with the `social` predictor), and
+dcmppi.control's defaults, validation (the checks of task kwargs) and registry: no controller,
+nothing of dcmppi.bench or dcmppi.render (tests/test_architecture.py). Installed, this folder is
+the subpackage dcmppi.tasks (see dcmppi/__init__.py).
 """
 
 from ._gl import choose_backend

@@ -13,8 +13,8 @@ parameters (`own_params`) alongside the planner's. Built in:
 - "given": the caller's own futures (act's moving_futures), e.g. a forecaster's or the truth.
 A new predictor is a `Predictor` subclass registered by name (README, "Your own predictor").
 
-May import numpy, numba and dcmppi.control's kernels (dynamics, normal, social, validation);
-never a planner, MuJoCo or the tasks (a predictor sees observations, not the world).
+May import numpy, numba, dcmppi.control's kernels (dynamics, normal, social), validation and
+registry; never a planner, MuJoCo or the tasks (a predictor sees observations, not the world).
 """
 
 from dcmppi.control.predictors import cv, ekf, frozen, given, prior, social  # noqa: F401  (registers the built-in predictors)

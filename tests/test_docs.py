@@ -81,7 +81,7 @@ def test_your_own_agent_section_runs():
                 assert np.hypot(state[0] - 2.5, state[1] - 0.4) > 1.0, name
             assert np.hypot(state[0] - 5.0, state[1] - 2.0) < 0.5, name
     finally:
-        base._AGENTS.pop("point", None)
+        base.AGENTS.unregister("point")
 
 
 def test_your_own_predictor_section_runs():
@@ -119,7 +119,7 @@ def test_your_own_predictor_section_runs():
         assert closest > touching and to_goal < 1.0
         assert drive(prediction="frozen")[0] < touching
     finally:
-        predictors.base._PREDICTORS.pop("straight", None)
+        predictors.base.PREDICTORS.unregister("straight")
 
 
 @pytest.mark.slow

@@ -4,11 +4,13 @@
 NO_TIMER, does nothing; `dcmppi timing --profile` sets a StepTimer, which adds up the seconds
 and calls of each label. Labels: "sample", "controls", "evaluate", "rollout", "objective",
 "importance", "update", "features", "DBSCAN", "cluster updates", "prediction"; with threads > 1
-"threads" (controls, rollout, objective and importance together, over the threads). Per-step
-draws into a box (and a disc) are made in the "controls" pass (Controller.perturbed_rollouts),
-so "sample" times only the others.
+also "threads", the wall time of the parts together (controls, rollout, objective and
+importance, whose labels then add up every thread's time). Per-step draws into a box (and a
+disc) are made in the "controls" pass (Controller.sample returns a Draw), so "sample" times
+only the others.
 """
 
+import threading
 import time
 from collections import defaultdict
 
@@ -32,20 +34,23 @@ def NO_TIMER(label):  # noqa: N802 (a constant that is called)
 
 
 class StepTimer:
-    """Seconds and calls per label, added up until `take()` returns and clears them."""
+    """Seconds and calls per label, added up until `take()` returns and clears them; the
+    threads of a step's parts may time at once."""
 
     def __init__(self):
         self.spent = defaultdict(float)
         self.calls = defaultdict(int)
+        self.lock = threading.Lock()
 
     def __call__(self, label):
         return _Part(self, label)
 
     def take(self):
         """{label: (seconds, calls)} since the last take(); clears the sums."""
-        out = {label: (self.spent[label], self.calls[label]) for label in self.spent}
-        self.spent.clear()
-        self.calls.clear()
+        with self.lock:
+            out = {label: (self.spent[label], self.calls[label]) for label in self.spent}
+            self.spent.clear()
+            self.calls.clear()
         return out
 
 
@@ -60,6 +65,8 @@ class _Part:
         return self
 
     def __exit__(self, *exc):
-        self.timer.spent[self.label] += time.perf_counter() - self.t0
-        self.timer.calls[self.label] += 1
+        seconds, timer = time.perf_counter() - self.t0, self.timer
+        with timer.lock:
+            timer.spent[self.label] += seconds
+            timer.calls[self.label] += 1
         return False

@@ -15,6 +15,7 @@ from dcmppi.control.planners.clustered import (
     features_of_sums,
     mean_std,
 )
+from dcmppi.control.planners.controller import Rollouts
 from dcmppi.control.planners.mppi import mppi_update
 
 
@@ -66,7 +67,7 @@ def test_features_of_unprojected_samples_are_standard_normal(perturbation):
     ctrl = dcmppi.make_controller(
         "clustered", agent="holonomic", seed=0, K=4000, perturbation=perturbation
     )
-    eps = ctrl.sample()  # before projection
+    eps = np.asarray(ctrl.sample())  # before projection
     F = cluster_features(eps, np.zeros(ctrl.K), ctrl._feature_scale, 1.0)[:, :3]
     np.testing.assert_allclose(F.mean(axis=0), 0, atol=0.06)
     np.testing.assert_allclose(F.std(axis=0), 1, atol=0.05)
@@ -77,17 +78,22 @@ def test_features_of_unprojected_samples_are_standard_normal(perturbation):
 def test_projection_pass_gives_the_features_and_reads_constant_perturbations_alike(
     agent, perturbation
 ):
-    """controls(..., sums=True): the same controls as for the perturbations laid out in full, and
-    horizon sums that make exactly cluster_features' values (the clustered step uses them)."""
+    """controls() with sums: the same controls for sample()'s perturbations (a constant view, a
+    Draw) as for them laid out in full, and horizon sums that make exactly cluster_features'
+    values (the clustered step uses them)."""
     ctrl = dcmppi.make_controller("clustered", agent=agent, seed=1, perturbation=perturbation)
     U0 = ctrl.agent.project(
         np.random.default_rng(2).normal(0, 0.7, (ctrl.N, ctrl.nu)) + ctrl.agent.upper / 2, axis=1
     )  # some samples land on the bounds
     eps = ctrl.sample()
-    u, e, sums = ctrl.controls(U0, eps, sums=True)
-    u_full, e_full = ctrl.controls(U0, np.ascontiguousarray(eps))
-    np.testing.assert_array_equal(u, u_full)
-    np.testing.assert_array_equal(e, e_full)
+    r = Rollouts.allocate(U0, eps, np.zeros(3), sums=True)
+    full = Rollouts.allocate(U0, np.ascontiguousarray(eps), np.zeros(3))
+    for each in (r, full):
+        ctrl.controls(each, (0, ctrl.K))
+    u, e, sums = r.u, r.e, r.sums
+    np.testing.assert_array_equal(u, full.u)
+    np.testing.assert_array_equal(e, full.e)
+    np.testing.assert_array_equal(r.products, full.products)
     assert (u == ctrl.agent.upper[:, None]).any() or (u == ctrl.agent.lower[:, None]).any()
     S = np.random.default_rng(3).uniform(0, 100, ctrl.K)
     inv = 1.0 / (ctrl.N * ctrl._feature_scale)

@@ -157,7 +157,9 @@ def test_every_sampled_control_respects_the_bounds(agent, perturbation):
     ctrl.act(np.zeros(3), np.array([10.0, 3.0]))
     a = ctrl.agent
     U0 = a.project(np.tile(a.upper, (15, 1)), axis=1)  # pinned at a corner of the bounds
-    u, eps = ctrl.controls(U0, ctrl.sample())
+    ctrl.U = U0
+    r = ctrl.perturbed_rollouts(np.zeros(3))
+    u, eps = r.u, r.e
     assert u.shape == (15, a.nu, 400)
     assert (u >= a.lower[None, :, None]).all() and (u <= a.upper[None, :, None]).all()
     if a.norm_axes is not None:
@@ -211,7 +213,7 @@ def test_every_perturbation_kind_has_the_per_step_variance_sigma(perturbation):
     ctrl = dcmppi.make_controller(
         "mppi", agent="holonomic", seed=0, K=20000, N=10, perturbation=perturbation
     )
-    eps = ctrl.sample()  # (N, 3, K)
+    eps = np.asarray(ctrl.sample())  # (N, 3, K)
     np.testing.assert_allclose(eps.var(axis=2), np.broadcast_to(ctrl.Sigma, (10, 3)), rtol=0.05)
     lag = (eps[0] * eps[5]).mean(axis=1) / ctrl.Sigma  # correlation between two steps
     expected = {"constant": 1.0, "time_varying": 0.0, "mixed": 0.5}[perturbation]

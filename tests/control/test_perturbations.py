@@ -1,5 +1,7 @@
 """The perturbation draws (counter-based Box-Muller) and the branch-free libm under them."""
 
+import functools
+
 import numba
 import numpy as np
 import pytest
@@ -12,14 +14,15 @@ from dcmppi.control.kernels.perturbations import (
     _GAMMA,
     _ULP,
     BLOCK,
+    Draw,
     _block_bases,
     _mix,
     _unit,
     draw_box,
     draw_normals,
 )
-from dcmppi.control.kernels.projection import NO_SUMS, project_columns, project_perturbed
-from dcmppi.control.kernels.sums import _accumulate
+from dcmppi.control.kernels.projection import NO_SUMS, project_columns
+from dcmppi.control.kernels.sums import _accumulate, importance
 from dcmppi.control.kernels.threads import parts
 from dcmppi.control.planners.mppi import MPPI
 
@@ -46,6 +49,13 @@ def _words(base, n):
     for j in range(n):
         out[j] = _mix(base + np.uint64(j) * _GAMMA)
     return out
+
+
+def project_perturbed(agent, U0, eps):
+    """project_columns of all the samples: u, e (N, nu, K) and the horizon sums of e (nu, K)."""
+    u, e, sums = np.empty(eps.shape), np.empty(eps.shape), np.zeros((agent.nu, eps.shape[2]))
+    project_columns(agent, U0, eps, u, e, sums)
+    return u, e, sums
 
 
 def test_unit_floats_are_the_top_53_bits_exactly():
@@ -211,7 +221,7 @@ def test_draws_into_a_box_are_the_draws_then_the_projection(k, mixed):
     U0 = rng.uniform(agent.lower, agent.upper, (7, 2))
     scale, add = np.array([0.6, 1.5]), (rng.normal(size=(2, k)) if mixed else None)
     eps = draw_normals(8, 4, (7, 2, k), scale, add)
-    want = project_perturbed(agent, U0, eps, sums=True)
+    want = project_perturbed(agent, U0, eps)
     assert 0 < (want[0] == agent.upper[1]).mean() < 0.5  # some controls are bounded
     for cols in (None, *parts(k, 2)):
         u, e, sums = np.zeros((7, 2, k)), np.zeros((7, 2, k)), np.zeros((2, k))
@@ -235,7 +245,7 @@ def test_draws_into_a_box_and_disc_are_the_draws_then_the_projection(k, mixed):
     U0 = rng.uniform(-0.7, 0.7, (6, 3)) * agent.upper
     scale, add = np.array([1.2, 0.9, 0.3]), (rng.normal(size=(3, k)) if mixed else None)
     eps = draw_normals(8, 4, (6, 3, k), scale, add)
-    want = project_perturbed(agent, U0, eps, sums=True)
+    want = project_perturbed(agent, U0, eps)
     np.testing.assert_array_equal(want[0], agent.project(U0[:, :, None] + eps, axis=1))
     speed = np.hypot(want[0][:, 0], want[0][:, 1])
     assert 0.1 < (speed > agent.norm_limit * (1 - 1e-12)).mean() < 0.9  # some on the disc
@@ -252,27 +262,31 @@ def test_draws_into_a_box_and_disc_are_the_draws_then_the_projection(k, mixed):
 
 @pytest.mark.parametrize("agent", ["unicycle", "holonomic"])
 @pytest.mark.parametrize("perturbation", ["time_varying", "mixed"])
-def test_a_step_drawn_in_its_pass_equals_sample_then_controls(agent, perturbation):
-    """perturbed_rollouts without eps (draws made in the projection's pass) equals it with the
-    step's sample(): the same draw numbers, values and outputs, on one thread and two."""
+def test_a_step_drawn_in_its_pass_equals_the_draw_made_first(agent, perturbation):
+    """perturbed_rollouts of sample()'s Draw (made in the pass that bounds it) equals it of the
+    same perturbations made first: the same draw numbers, values and outputs, on one thread and
+    two; the Draw's array is draw_normals' and the same for every number of threads."""
     for threads in (1, 2):
         runs = []
-        for given in (False, True):
+        for made in (False, True):
             ctrl = make_controller(
                 "mppi", agent=agent, K=200, N=12, seed=4, perturbation=perturbation,
                 threads=threads,
             )  # fmt: skip
             ctrl.act(np.zeros(3), np.array([5.0, 1.0]))
-            assert ctrl._draws_in_pass()
-            eps = ctrl.sample() if given else None
-            runs.append(ctrl.perturbed_rollouts(np.zeros(3), eps, sums=True) + (ctrl._draws,))
+            draw = ctrl.sample()
+            assert isinstance(draw, Draw) and draw.shape == (12, ctrl.nu, 200)
+            eps = np.asarray(draw) if made else draw
+            assert np.array_equal(np.asarray(draw), draw.array(threads=3))
+            r = ctrl.perturbed_rollouts(np.zeros(3), eps, sums=True)
+            runs.append((r.u, r.e, r.sums, r.products, r.states, r.J, r.importance, ctrl._draws))
         for a, b in zip(*runs, strict=True):
             assert np.array_equal(a, b)
 
 
 def test_a_replaced_sample_is_used():
-    """A subclass's or an instance's own sample() gives the step's perturbations: the draw in
-    the projection's pass stands in only for the sample() defined by Controller."""
+    """A subclass's or an instance's own sample() gives the step's perturbations, an array
+    in place of the Draw made in the projection's pass."""
 
     class Fixed(MPPI):
         def sample(self):
@@ -288,23 +302,39 @@ def test_a_replaced_sample_is_used():
     ctrl.act(np.zeros(3), goal)
     assert not ctrl.diagnostics.eps.any()
 
-    class Unbounded(MPPI):  # its own controls(): the perturbations as drawn, unbounded
-        def controls(self, U0, eps, sums=False):
-            return U0[:, :, None] + eps, np.array(eps)
 
-    ctrl = Unbounded(K=70, N=9, seed=1, Sigma=1.0, perturbation="time_varying")
-    ctrl.act(np.zeros(3), goal)
-    d = ctrl.diagnostics
-    assert (np.abs(d.warm_start[None] + d.eps) > ctrl.agent.upper[0]).mean() > 0.1
+def test_a_replaced_controls_may_take_a_draw_and_leave_it_unbounded():
+    """A subclass's own controls() gets sample()'s Draw, here made into an array and applied
+    unbounded, on one thread and two alike."""
+
+    class Unbounded(MPPI):
+        def controls(self, r, cols):
+            j = slice(*cols)
+            eps = np.asarray(r.eps)[:, :, j]
+            r.u[:, :, j], r.e[:, :, j] = r.U0[:, :, None] + eps, eps
+            for i in range(self.N):  # the importance term's sums, in order
+                r.products[:, j] += r.U0[i, :, None] * eps[i]
+
+    plans = []
+    for threads in (1, 2):
+        ctrl = Unbounded(K=200, N=9, seed=1, Sigma=1.0, perturbation="time_varying",
+                         threads=threads)  # fmt: skip
+        ctrl.act(np.zeros(3), np.array([5.0, 1.0]))
+        d = ctrl.diagnostics
+        assert (np.abs(d.warm_start[None] + d.eps) > ctrl.agent.upper[0]).mean() > 0.1
+        assert np.array_equal(d.S - d.J, importance(d.warm_start, d.eps.transpose(1, 2, 0),
+                                                    ctrl._importance_weight))  # fmt: skip
+        plans.append(d.plan)
+    assert np.array_equal(*plans)
 
 
 def test_a_replaced_importance_is_used():
-    """The draws' pass accumulates the importance term's sums only for Controller's own
-    importance(): a subclass's or an instance's is called instead, on one thread or two."""
+    """A subclass's or an instance's own importance() gives the step's importance terms, on one
+    thread or two."""
 
     class Without(MPPI):
-        def importance(self, U0, eps):
-            return np.zeros(eps.shape[2])
+        def importance(self, r, cols):
+            r.importance[cols[0] : cols[1]] = 0.0
 
     goal = np.array([5.0, 1.0])
     for threads in (1, 2):
@@ -316,7 +346,7 @@ def test_a_replaced_importance_is_used():
         ctrl.act(np.zeros(3), goal)
         assert np.array_equal(ctrl.diagnostics.S, ctrl.diagnostics.J)
         ctrl = make_controller("mppi", threads=threads, **params)
-        ctrl.importance = lambda U0, eps: np.zeros(eps.shape[2])
+        ctrl.importance = functools.partial(Without.importance, ctrl)
         ctrl.act(np.zeros(3), goal)
         assert np.array_equal(ctrl.diagnostics.S, ctrl.diagnostics.J)
 
@@ -324,16 +354,16 @@ def test_a_replaced_importance_is_used():
 @pytest.mark.parametrize("agent", ["dubins", "unicycle", "holonomic"])
 def test_the_importance_summed_in_the_bounding_pass_is_importances(agent):
     """With one constant draw per sample, or perturbations given, the pass that bounds the
-    controls sums the importance term over the steps too: the values of importance(U0, e), on
-    one thread and two; project_columns' sums are those of dcmppi.control.kernels.sums."""
+    controls sums the importance term over the steps too: the values of
+    dcmppi.control.kernels.sums.importance(U0, e), on one thread and two."""
     for threads in (1, 2):
         ctrl = make_controller(
             "mppi", agent=agent, K=200, N=12, seed=4, perturbation="constant", threads=threads
         )
         ctrl.act(np.zeros(3), np.array([5.0, 1.0]))
         for eps in (None, 3.0 * ctrl.sample()):  # drawn in the step; three sigmas: many bounded
-            e, _, _, importance = ctrl.perturbed_rollouts(np.zeros(3), eps)
-            assert np.array_equal(importance, ctrl.importance(ctrl.U, e))
+            r = ctrl.perturbed_rollouts(np.zeros(3), eps)
+            assert np.array_equal(r.importance, importance(ctrl.U, r.e, ctrl._importance_weight))
     eps = 3.0 * ctrl.sample()
     u, e, got, want = (
         np.empty(eps.shape),

@@ -11,9 +11,10 @@ import pytest
 from threadpoolctl import threadpool_limits
 
 import dcmppi
+from dcmppi.control import controller_class
 from dcmppi.control.kernels.dynamics import arc_columns, dubins_step
 from dcmppi.control.kernels.threads import ALIGN, parts, run
-from dcmppi.control.planners.mppi import MPPI
+from dcmppi.control.planners.tube import TubeMPPI
 
 GOAL = np.array([12.0, 1.0])
 STATIC = np.array([[4.0, 0.5, 0.6], [7.0, -1.0, 0.8], [9.0, 2.0, 0.5]])
@@ -31,12 +32,19 @@ def moving(step):
 def closed_loop(name, agent, threads, steps=4, **params):
     """The actions and per-step diagnostics of `steps` closed-loop steps."""
     ctrl = dcmppi.make_controller(name, agent=agent, K=300, N=20, seed=3, threads=threads, **params)
+    return drive(ctrl, steps)
+
+
+def drive(ctrl, steps):
+    """The actions and per-step diagnostics of the controller `ctrl` in `steps` closed-loop steps
+    (tube: the real state pushed off the nominal every step)."""
     state, actions, records = np.array([0.0, 0.0, 0.2]), [], []
+    push = PUSH if isinstance(ctrl, TubeMPPI) else 0.0
     for step in range(steps):
         u = ctrl.act(state, GOAL, STATIC, moving(step), MODEL, bounds=(-5, -5, 20, 8))
         actions.append(u)
         records.append(dataclasses.asdict(ctrl.diagnostics))
-        state = ctrl.agent.step(state, u, ctrl.dt) + (PUSH if name == "tube" else 0.0)
+        state = ctrl.agent.step(state, u, ctrl.dt) + push
     return np.array(actions), records
 
 
@@ -74,35 +82,59 @@ def test_three_threads_and_the_auto_temperature():
     assert len(parts(300, 3)) == 3 and np.array_equal(one, three)
 
 
-class HalfPerturbations(MPPI):
-    """Its own controls(): half of every perturbation."""
+class HalfPerturbations:
+    """Its own controls(): half of every perturbation, an array or a Draw."""
 
-    def controls(self, U0, eps, sums=False):
-        self.calls += 1
-        return super().controls(U0, 0.5 * np.asarray(eps), sums)
+    def controls(self, r, cols):
+        self.calls.append(cols)
+        super().controls(dataclasses.replace(r, eps=0.5 * np.asarray(r.eps)), cols)
 
 
-class HeadingCost(MPPI):
+class HeadingCost:
     """Its own evaluate(): the final heading's square added to J."""
 
-    def evaluate(self, x0, u, starts=1, moving=False):
-        self.calls += 1
-        states, J, *rest = super().evaluate(x0, u, starts, moving)
-        return (states, J + 100.0 * states[2, -1] ** 2, *rest)
+    def evaluate(self, r, cols):
+        self.calls.append(cols)
+        super().evaluate(r, cols)
+        for c0, c1 in r.spans(cols):
+            r.J[c0:c1] += 100.0 * r.states[2, -1, c0:c1] ** 2
 
 
-@pytest.mark.parametrize("cls", [HalfPerturbations, HeadingCost])
-def test_a_replaced_controls_or_evaluate_is_called_whatever_the_threads(cls):
-    """A subclass's controls() or evaluate() plans with threads as without: it is called."""
-    actions = []
-    for threads in (1, 2):
-        ctrl = cls(K=256, N=10, seed=0, threads=threads, perturbation="constant")
-        ctrl.calls = 0
-        actions.append(ctrl.act([0.0, 0.0, 0.0], [5.0, 3.0]))
-        assert ctrl.calls == 1
-    plain = dcmppi.make_controller("mppi", K=256, N=10, seed=0, perturbation="constant")
-    assert np.array_equal(actions[0], actions[1])
-    assert not np.array_equal(actions[0], plain.act([0.0, 0.0, 0.0], [5.0, 3.0]))
+class HalfImportance:
+    """Its own importance(): half of the importance term."""
+
+    def importance(self, r, cols):
+        self.calls.append(cols)
+        super().importance(r, cols)
+        r.importance[cols[0] : cols[1]] *= 0.5
+
+
+@pytest.mark.parametrize("seam", [HalfPerturbations, HeadingCost, HalfImportance])
+@pytest.mark.parametrize("perturbation", ["constant", "time_varying"])
+@pytest.mark.parametrize("name", ["mppi", "clustered", "tube"])
+def test_a_replaced_seam_is_called_for_every_part_and_plans_alike_on_any_threads(
+    seam, perturbation, name
+):
+    """A subclass's own controls(), evaluate() or importance() is called for every part of the
+    samples, whatever the threads, and plans alike on one thread and two (tube: from two start
+    states); it changes the plans."""
+    base = controller_class(name)
+    own = type(seam.__name__, (seam, base), {})
+    params = dict(K=256, N=10, seed=0, perturbation=perturbation)
+    runs = []
+    with threadpool_limits(1):
+        for threads in (1, 2):
+            ctrl = own(threads=threads, **params)
+            ctrl.calls = []
+            runs.append(drive(ctrl, 3))
+            for part in parts(256, threads):  # once a batch, 3 steps (tube: 2 batches a step)
+                assert ctrl.calls.count(part) >= 3  # clustered: its clusters' evaluate() too
+        (one, records_one), (two, records_two) = runs
+        assert len(parts(256, 2)) == 2 and np.array_equal(one, two)
+        for a, b in zip(records_one, records_two, strict=True):
+            assert_same(a, b)
+        plain, _ = drive(base(**params), 3)
+    assert not np.array_equal(one, plain)
 
 
 def test_sharp_arcs_in_one_part_only():
@@ -118,18 +150,18 @@ def test_sharp_arcs_in_one_part_only():
         split = ctrl.perturbed_rollouts(state, eps)
         ctrl.threads = 1
         whole = ctrl.perturbed_rollouts(state, eps)
-    for a, b in zip(split, whole, strict=True):
-        assert np.array_equal(a, b)
+    for field in ("u", "e", "products", "states", "J", "importance"):
+        assert np.array_equal(getattr(split, field), getattr(whole, field)), field
     u = np.clip(ctrl.U[:, :, None] + eps, -10.0, 10.0)
     out = np.zeros((3, ctrl.N + 1, 1, ctrl.K))
     arc_columns(out, u, ctrl.dt, 1.0, (0, 192))
-    assert np.array_equal(out[:, :, 0, :192], whole[1][:, :, :192])
+    assert np.array_equal(out[:, :, 0, :192], whole.states[:, :, :192])
     omega = u[:, 0, 250]
     x = np.zeros(3)
     for w in omega:  # libm's sines: the exact arc of dubins_step
         x = dubins_step(x, w, 1.0, ctrl.dt)
     assert abs(omega[0] * ctrl.dt / 2) > 0.1
-    np.testing.assert_allclose(whole[1][:, -1, 250], x, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(whole.states[:, -1, 250], x, rtol=0, atol=1e-12)
 
 
 def test_parts_cover_the_samples_at_aligned_boundaries():

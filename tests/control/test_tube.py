@@ -92,11 +92,11 @@ def test_nominal_kept_runs_lqr_feedback():
 def test_two_start_batch_equals_separate_rollouts():
     ctrl = dcmppi.make_controller("tube", seed=0, K=64)
     ctrl.act(np.zeros(3), GOAL)  # sets the goal and the cost map
-    u, _ = ctrl.controls(ctrl.U, ctrl.sample())
+    u = ctrl.perturbed_rollouts(np.zeros(3)).u
     z, x = np.array([0.0, 0.0, 0.1]), np.array([0.2, -0.1, 7.0])
-    states, J = ctrl.evaluate(np.column_stack([z, x]), u, starts=2)
+    states, J = ctrl.rollout_costs(np.column_stack([z, x]), u, starts=2)
     for i, start in enumerate([z, x]):
-        s1, J1 = ctrl.evaluate(start, u)
+        s1, J1 = ctrl.rollout_costs(start, u)
         np.testing.assert_array_equal(states[:, :, i * 64 : (i + 1) * 64], s1)
         np.testing.assert_array_equal(J[i * 64 : (i + 1) * 64], J1)
 

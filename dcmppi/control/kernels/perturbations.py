@@ -13,7 +13,11 @@ its Generator at each reset), the step's draw number and the block's index, so t
   words' 64-bit integer work goes four to an AVX2 register, the transform's float32 work eight, so
   they are two loops over a block's row; the normals are then widened and scaled in float64.
 Integer arithmetic and rounded float operations only: the same values on every machine.
+A Draw names one draw without making it: the planners make per-step draws in the pass that
+bounds them (Draw.into_box), row by row while the row is in the cache.
 """
+
+import dataclasses
 
 import numba
 import numpy as np
@@ -186,10 +190,10 @@ def draw_box(
     (+ add)) in their box, into the samples cols = (j0, j1) of u, e (N, nu, K) (None: all; j0 a
     multiple of BLOCK, as threads.parts gives): u = min(max(U0 + eps, lower), upper), e = u - U0,
     with the horizon sums of e added to sums (nu, K) (a (0, 0) array: none); the values of
-    draw_normals then agents.projection's box, in one pass. products (nu, K), when given, gets
-    the importance term's sums over the steps, sum_i U0[i, c] e[i, c] (dcmppi.control.kernels.sums'
-    values). disc = (p, q, limit): controls p and q then scaled back onto |(u_p, u_q)| <= limit
-    (the holonomic base's bound), as agents.projection does.
+    draw_normals then projection.project_columns, in one pass. products (nu, K), when given,
+    gets the importance term's sums over the steps, sum_i U0[i, c] e[i, c]
+    (dcmppi.control.kernels.sums' values). disc = (p, q, limit): controls p and q then scaled
+    back onto |(u_p, u_q)| <= limit (the holonomic base's bound), as project_columns does.
 
     scale, lower, upper: (nu,); add: (nu, K) or None; U0: (N, nu).
     """
@@ -202,3 +206,33 @@ def draw_box(
         p, q, limit = disc
         _draw_box_disc(key, draw, scale, add, U0, lower, upper, p, q, float(limit), u, e, sums,
                        products, j0, j1)  # fmt: skip
+
+
+@dataclasses.dataclass(frozen=True)
+class Draw:
+    """The perturbations eps = z * scale[:, None] (+ add) (N, nu, K) of the draw `draw` of the
+    stream `key`, not yet made: `array()` (or np.asarray) makes them at once (draw_normals),
+    `into_box` bounds each row as it is drawn (draw_box), both with the same values.
+
+    key, draw: ints in [0, 2^64). shape: (N, nu, K). scale: (nu,). add: (nu, K) or None.
+    """
+
+    key: int
+    draw: int
+    shape: tuple
+    scale: np.ndarray
+    add: np.ndarray | None = None
+
+    def array(self, threads=1):
+        """eps (N, nu, K), drawn on `threads` threads (the same values for every number)."""
+        return draw_normals(self.key, self.draw, self.shape, self.scale, self.add, threads)
+
+    def __array__(self, dtype=None, copy=None):
+        return self.array() if dtype is None else self.array().astype(dtype, copy=False)
+
+    def into_box(self, agent, U0, u, e, sums, products, cols=None):
+        """draw_box of these draws for an agent bounded by a box (agent.lower, agent.upper), or a
+        box and a disc (agent.norm_axes of two controls, agent.norm_limit)."""
+        disc = None if agent.norm_axes is None else (*agent.norm_axes, agent.norm_limit)
+        draw_box(self.key, self.draw, self.scale, self.add, U0, agent.lower, agent.upper, u, e,
+                 sums, cols, products, disc)  # fmt: skip

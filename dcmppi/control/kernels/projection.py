@@ -12,24 +12,16 @@ import numpy as np
 from dcmppi.control.kernels.threads import in_cols, n_cols
 
 
-def project_perturbed(agent, U0, eps, sums=False):
-    """Bounded controls u = project(U0 + eps) (N, nu, K) and the perturbations u - U0 that
-    remain; with sums=True also their horizon sums (nu, K), added up in the same pass.
+def project_columns(agent, U0, eps, u, e, sums, cols=None, products=None):
+    """Bounded controls u = project(U0 + eps) and the perturbations that remain, u - U0, of the
+    samples cols = (j0, j1) (None: all), written in place into their columns of u, e (N, nu, K);
+    sums (nu, K) zeros (or NO_SUMS: none asked) get the horizon sums of u - U0, and products
+    (nu, K) zeros, when given, the importance term's sums over the steps, sum_i U0[i, c]
+    e[i, c] (dcmppi.control.kernels.sums' values), in the same pass.
 
     eps: (N, nu, K), or a view with a zero stride along N (one constant perturbation per sample),
     read then as one contiguous (1, nu, K) block.
     """
-    u, e = np.empty(eps.shape), np.empty(eps.shape)
-    out = np.zeros((agent.nu, eps.shape[2])) if sums else NO_SUMS
-    project_columns(agent, U0, eps, u, e, out)
-    return (u, e, out) if sums else (u, e)
-
-
-def project_columns(agent, U0, eps, u, e, sums, cols=None, products=None):
-    """project_perturbed of the samples cols = (j0, j1) (None: all), written in place into
-    their columns of u, e (N, nu, K) and sums (nu, K) zeros (or NO_SUMS: none asked); products
-    (nu, K) zeros, when given, get the importance term's sums over the steps, sum_i U0[i, c]
-    e[i, c] (dcmppi.control.kernels.sums' values), in the same pass."""
     if eps.strides[0] == 0:  # constant: one contiguous (1, nu, K) block for every step
         eps = eps[:1]
     products = NO_SUMS if products is None else products

@@ -219,19 +219,20 @@ class ClusteredMPPI(MPPI):
 
     def _solve(self, state):
         timer = self.timer
-        eps, states, J, S, sums, term = self.rollouts(state, sums=True, moving=True)
+        r = self.perturbed_rollouts(state, sums=True)
+        eps, S = r.e, r.J + r.importance
         with timer("features"):
             unit = self.objective.prediction.unit
             cost = (
                 S
-                if term is None or unit == self.cost_unit or not unit
-                else S + term * (self.cost_unit / unit - 1.0)
+                if r.moving is None or unit == self.cost_unit or not unit
+                else S + r.moving * (self.cost_unit / unit - 1.0)
             )  # moving-obstacle term in units of the prediction's collision_cost (0: no term)
-            features = features_of_sums(sums, cost, self._feature_inv, self._cost_scale)
+            features = features_of_sums(r.sums, cost, self._feature_inv, self._cost_scale)
         with timer("DBSCAN"):
             best = int(np.argmin(S))
             labels = cluster_labels(features, self.dbscan_eps, self.dbscan_min_samples, best)
-        self.record(eps, states, J, S)
+        self.record(eps, r.states, r.J, S)
         d = self.diagnostics
         d.labels, d.features = labels, features
         lam = d.lambda_ = self.temperature(S)  # one lambda, over all samples, for every cluster
@@ -247,7 +248,7 @@ class ClusteredMPPI(MPPI):
                 U, w = cluster_updates(
                     self.U, eps, S, lam, labels, raw[0] if scalar else None, agent.upper[0]
                 )
-            _, Jm = self.evaluate(state, U.transpose(1, 2, 0))
+            _, Jm = self.rollout_costs(state, U.transpose(1, 2, 0))
             best = int(np.argmin(Jm))
             plan, w = U[best], np.where(labels == best, w, 0.0)
             d.chosen, d.cluster_controls, d.cluster_costs = best, U, Jm

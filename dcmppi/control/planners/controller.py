@@ -12,6 +12,7 @@ plus its own. Each step, the predictor turns the moving obstacles into tracks, t
 scores rollouts, and the subclass's `_solve` plans with them.
 """
 
+import dataclasses
 import functools
 import numbers
 
@@ -20,9 +21,9 @@ import numpy as np
 from dcmppi.control import defaults
 from dcmppi.control.agents import make_agent
 from dcmppi.control.kernels.costs import RESOLUTION, OccupancyGrid, valid_cylinders
-from dcmppi.control.kernels.perturbations import draw_box, draw_normals
-from dcmppi.control.kernels.projection import NO_SUMS, bound, project_columns, project_perturbed
-from dcmppi.control.kernels.sums import importance, importance_of
+from dcmppi.control.kernels.perturbations import Draw, draw_normals
+from dcmppi.control.kernels.projection import NO_SUMS, bound, project_columns
+from dcmppi.control.kernels.sums import importance_of
 from dcmppi.control.kernels.threads import parts, run
 from dcmppi.control.objective import Objective
 from dcmppi.control.planners.diagnostics import Diagnostics
@@ -69,6 +70,16 @@ class Controller:
         own parameters go alongside.
     Attributes: agent, predictor, objective (the last step's), diagnostics (the last step's),
       timer (the profile's hook, dcmppi.control.timer).
+
+    A subclass implements `_solve(state)` -> (nu,) controls, and may override the seams of a
+    step's per-sample work (perturbed_rollouts). sample() runs once per step on the calling
+    thread; the others run for every part of the samples, cols = (j0, j1), on the thread that
+    holds the part, so that an override plans alike on any number of threads. They fill the
+    step's Rollouts r in place:
+      sample() -> eps (N, nu, K): an array, or a Draw made in the pass that bounds it;
+      controls(r, cols): r.u, r.e, r.sums (when asked) and r.products of those samples;
+      evaluate(r, cols): their r.states, r.J and r.moving (its columns: r.spans(cols));
+      importance(r, cols): their r.importance.
     """
 
     name = None
@@ -272,27 +283,23 @@ class Controller:
             inputs["robot_plan"] = self.agent.rollout_one(state, self.U, self.dt)
         return inputs
 
-    # --- building blocks --------------------------------------------------------------------
+    # --- building blocks: the seams a subclass may override -------------------------------
 
     def sample(self):
-        """Perturbations eps (N, nu, K) drawn from N(0, Sigma), time-major.
+        """This step's perturbations eps (N, nu, K) from N(0, Sigma), time-major: an array, or
+        a Draw of them (dcmppi.control.kernels.perturbations; np.asarray makes it) that
+        controls() makes in the pass that bounds them, row by row while the row is in the cache.
 
         constant: one draw per sample and control (kept in self._raw (nu, K)), the same at
         every step; time_varying: independent draws per step; mixed: the sum of one of each,
         both N(0, Sigma / 2), so that every kind has the per-step variance Sigma that the
-        importance term assumes.
+        importance term assumes. The per-step kinds are a Draw for an agent bounded by a box
+        (or a box and a disc of two controls), else an array.
         """
-        shape = (self.N, self.nu, self.K)
         if self.perturbation == "constant":
             raw = self._normals((1, self.nu, self.K), self.sigma)
             self._raw = raw[0]
             return constant_steps(raw, self.N)
-        draw, scale, add = self._per_step()
-        return draw_normals(self._key, draw, shape, scale, add, self.threads)
-
-    def _per_step(self):
-        """The next per-step draw (time_varying, mixed) for sample(): its number, scale (nu,)
-        and added term (nu, K) or None (mixed: half of a constant draw made now)."""
         self._raw = None  # no constant draw of the whole horizon this step
         scale, add = self.sigma, None
         if self.perturbation == "mixed":
@@ -300,24 +307,9 @@ class Controller:
             raw = self._normals((1, self.nu, self.K), self.sigma)[0]
             scale, add = half * self.sigma, half * raw
         self._draws += 1
-        return self._draws, scale, add
-
-    def _draws_in_pass(self):
-        """Whether perturbed_rollouts may draw this step's perturbations in the pass that
-        bounds them: per-step draws into a box (and a disc of two controls), with sample() and
-        controls() as defined here (a subclass's or an instance's own are called instead)."""
-        return (
-            self._own("sample")
-            and self._own("controls")
-            and self.perturbation != "constant"
-            and (self.agent.norm_axes is None or len(self.agent.norm_axes) == 2)
-        )
-
-    def _own(self, method):
-        """Whether `method` is Controller's, not a subclass's or an instance's own."""
-        return getattr(type(self), method) is getattr(Controller, method) and (
-            method not in vars(self)
-        )
+        draw = Draw(self._key, self._draws, (self.N, self.nu, self.K), scale, add)
+        axes = self.agent.norm_axes
+        return draw if axes is None or len(axes) == 2 else draw.array(self.threads)
 
     def _normals(self, shape, scale):
         """The next draw of this episode's perturbation stream
@@ -326,111 +318,81 @@ class Controller:
         self._draws += 1
         return draw_normals(self._key, self._draws, shape, scale)
 
-    def controls(self, U0, eps, sums=False):
-        """Bounded controls project(U0 + eps) (N, nu, K) and the perturbations that remain
-        (dcmppi.control.kernels.projection); with sums=True also their horizon sums (nu, K), the
-        clustering features."""
-        return project_perturbed(self.agent, U0, eps, sums)
+    def controls(self, r, cols):
+        """The samples cols = (j0, j1) of the Rollouts r: the bounded controls project(r.U0 +
+        r.eps) into r.u, the perturbations that remain into r.e, and in the same pass their sums
+        over the steps into r.sums (when asked) and r.products (which importance() reads)."""
+        sums = NO_SUMS if r.sums is None else r.sums
+        if isinstance(r.eps, Draw):
+            r.eps.into_box(self.agent, r.U0, r.u, r.e, sums, r.products, cols)
+        else:
+            whole = None if cols == (0, r.K) else cols  # the kernels' loop without a slice
+            project_columns(self.agent, r.U0, r.eps, r.u, r.e, sums, whole, r.products)
 
-    def perturbed_rollouts(self, x0, eps=None, starts=1, sums=False, moving=False):
-        """A step's per-sample work, its samples split over `threads` threads (on this thread
-        alone when controls() or evaluate() is replaced, which are then called): the controls
-        project(U + eps) (Controller.controls), their rollouts from x0 and costs under this
-        step's objective (Controller.evaluate), and the importance term (Controller.importance;
-        with per-step draws into a box (or a disc) its sums over the steps come from the draws'
-        pass).
+    def evaluate(self, r, cols):
+        """The samples cols = (j0, j1) of the Rollouts r: their controls r.u rolled out from the
+        start states r.states[:, 0] into r.states, their costs under this step's objective into
+        r.J and, when r.moving is an array, J's moving-obstacle term into it (0 without one);
+        r.spans(cols) gives their columns of states and J, one range per start state."""
+        k = r.K
+        with self.timer("rollout"):
+            states = r.states.reshape(3, r.states.shape[1], -1, k)  # (3, N + 1, S, K), a view
+            self.agent.rollout_columns(states, r.u, self.dt, None if cols == (0, k) else cols)
+        with self.timer("objective"):
+            for c0, c1 in r.spans(cols):
+                whole = None if (c0, c1) == (0, len(r.J)) else (c0, c1)
+                r.J[c0:c1], term = self.objective(r.states, True, whole)
+                if r.moving is not None:
+                    r.moving[c0:c1] = 0.0 if term is None else term
+
+    def importance(self, r, cols):
+        """The samples cols = (j0, j1) of the Rollouts r: the importance term gamma lambda sum_i
+        u_i^T Sigma^-1 e_i (lambda = 1 with lambda_="auto") into r.importance, from the sums
+        r.products that controls() leaves."""
+        j0, j1 = cols
+        r.importance[j0:j1] = importance_of(r.products[:, j0:j1], self._importance_weight)
+
+    # --- the per-sample work of a step ------------------------------------------------------
+
+    def perturbed_rollouts(self, x0, eps=None, starts=1, sums=False):
+        """A step's per-sample work: its K samples split over `threads` threads (one part on
+        one thread), each part's controls(), evaluate() and importance() in turn.
 
         x0: (3,), or (3, S) with starts = S > 1: every sample rolls out from each start.
-        eps: (N, nu, K) perturbations, or None: this step's (Controller.sample); per-step draws
-          into a box (and the holonomic base's disc) are then bounded row by row as they are
-          drawn, with the values of sample() then controls() (perturbations.draw_box), unless
-          either is replaced (a subclass's or an instance's: they are called, on one thread).
-        Returns e (N, nu, K) the perturbations that remain, states (3, N + 1, S K), J (S K,),
-        the importance term (K,); with sums=True also the horizon sums of e (nu, K), with
-        moving=True J's moving-obstacle term (S K,) (None: 0).
+        eps: (N, nu, K) perturbations, or None: this step's sample().
+        sums: whether to keep the horizon sums of the perturbations (the clustering features).
+        Returns the Rollouts.
         """
-        agent, U0 = self.agent, self.U
-        in_pass = eps is None and self._draws_in_pass()
-        if eps is None and not in_pass:
+        if eps is None:
             with self.timer("sample"):
                 eps = self.sample()
-        K = self.K if in_pass else eps.shape[2]
-        # a replaced controls() or evaluate() is called as it is, on this thread
-        split = self._own("controls") and self._own("evaluate")
-        ranges = parts(K, self.threads) if split else ((0, K),)
-        # the pass that bounds the controls is ours (not a replaced controls()); then it sums the
-        # importance term over the steps too, unless importance() is replaced
-        ours = self._own("controls")  # so whenever the draws are in the pass or split
-        fused = ours and self._own("importance")
-        products = np.zeros((self.nu, K)) if fused else NO_SUMS
-        if ours:
-            u, e = np.empty((self.N, self.nu, K)), np.empty((self.N, self.nu, K))
-            total = np.zeros((self.nu, K)) if sums else NO_SUMS
-            if in_pass:
-                box = agent.lower, agent.upper
-                disc = None if agent.norm_axes is None else (*agent.norm_axes, agent.norm_limit)
-                project = functools.partial(
-                    draw_box, self._key, *self._per_step(), U0, *box, products=products, disc=disc
-                )
-            else:
-                project = functools.partial(project_columns, agent, U0, eps, products=products)
-        if len(ranges) == 1:  # the whole batch on this thread
-            with self.timer("controls"):
-                if ours:
-                    project(u, e, total)
-                else:  # a subclass's or an instance's own controls()
-                    u, e, *rest = self.controls(U0, eps, sums)
-                    total = rest[0] if sums else NO_SUMS
-            states, J, term = self.evaluate(x0, u, starts, moving=True)
-            with self.timer("importance"):
-                importance = (
-                    importance_of(products, self._importance_weight)
-                    if fused
-                    else self.importance(U0, e)
-                )
-            return e, states, J, importance, *([total] if sums else []), *([term] if moving else [])
-        objective = self.objective
-        out = np.empty((3, self.N + 1, starts, K))
-        out[:, 0] = np.reshape(x0, (3, starts, -1))
-        states = out.reshape(3, self.N + 1, starts * K)
-        J, importance = np.empty(starts * K), np.empty(K)
-        term = None if objective.tracks.empty else np.empty(starts * K)
+        moving = not self.objective.tracks.empty
+        r = Rollouts.allocate(self.U, eps, x0, starts, sums, moving)
+        ranges = parts(r.K, self.threads)
+        timer = self.timer if len(ranges) > 1 else NO_TIMER  # "threads": the parts' wall time
+        with timer("threads"):
+            run(functools.partial(self._part, r), ranges)
+        return r
 
-        def part(j0, j1):
-            project(u, e, total, (j0, j1))
-            agent.rollout_columns(out, u, self.dt, (j0, j1))
-            for s in range(starts):
-                c0, c1 = s * K + j0, s * K + j1
-                J[c0:c1], t = objective(states, True, (c0, c1))
-                if term is not None:
-                    term[c0:c1] = t
-            importance[j0:j1] = (
-                importance_of(products[:, j0:j1], self._importance_weight)
-                if fused
-                else self.importance(U0, e[:, :, j0:j1])
-            )
+    def _part(self, r, j0, j1):
+        """The per-sample work of the samples j0:j1 of the Rollouts r (on any thread)."""
+        with self.timer("controls"):
+            self.controls(r, (j0, j1))
+        self.evaluate(r, (j0, j1))
+        with self.timer("importance"):
+            self.importance(r, (j0, j1))
 
-        with self.timer("threads"):
-            run(part, ranges)
-        return e, states, J, importance, *([total] if sums else []), *([term] if moving else [])
+    def rollout_costs(self, x0, u, starts=1):
+        """Rollouts of given controls and their costs under this step's objective (evaluate()).
 
-    def evaluate(self, x0, u, starts=1, moving=False):
-        """Rollouts and their costs under this step's objective. x0: (3,) or (3, R);
-        u: (N, nu, R). Returns states (3, N + 1, R), J (R,), and with moving=True the
-        moving-obstacle term of J (R,) (None: 0).
-
-        starts = S > 1: x0 (3, S) start states that all take the R sequences; R becomes S R.
+        x0: (3,), (3, R) one per sequence, or (3, S) with starts = S > 1: every sequence from
+        each. u: (N, nu, R) controls within the agent's bounds.
+        Returns states (3, N + 1, S R) and J (S R,).
         """
-        with self.timer("rollout"):
-            states = self.agent.rollout(x0, u, self.dt, starts)
-        with self.timer("objective"):
-            J = self.objective(states, moving)
-        return (states, *J) if moving else (states, J)
-
-    def importance(self, U0, eps):
-        """gamma lambda sum_i u_i^T Sigma^-1 eps_i for each sample (K,) (lambda = 1 with
-        lambda_="auto")."""
-        return importance(U0, eps, self._importance_weight)
+        n, _, k = np.shape(u)
+        r = Rollouts(u=u, states=start_states(x0, n, starts, k), J=np.empty(starts * k))
+        self.evaluate(r, (0, k))
+        return r.states, r.J
 
     def temperature(self, S):
         """The step's lambda for the costs S (K,): lambda_, or with "auto" the one whose weights
@@ -452,6 +414,70 @@ class Controller:
         self.U = shifted(plan)
         self.diagnostics.plan = plan
         return bound(self.agent, plan[0])
+
+
+@dataclasses.dataclass(frozen=True, slots=True)
+class Rollouts:
+    """A step's K perturbed samples rolled out from S start states, and their costs
+    (Controller.perturbed_rollouts); the seams controls(), evaluate() and importance() fill the
+    arrays in place, a range of samples at a time.
+
+      U0: (N, nu) the warm start that the samples perturb.
+      eps: (N, nu, K) the perturbations, or a Draw of them (Controller.sample).
+      u: (N, nu, K) the bounded controls project(U0 + eps).
+      e: (N, nu, K) the perturbations that remain, u - U0 (the update's and the importance
+        term's).
+      products: (nu, K) sum_i U0[i, c] e[i, c], the importance term's sums over the steps.
+      sums: (nu, K) the horizon sums of e (the clustering features), or None: not asked.
+      states: (3, N + 1, S K) the rollouts; columns s K .. s K + K - 1 start from start s.
+      J: (S K,) their costs under the step's objective.
+      moving: (S K,) J's moving-obstacle term, or None: the step has no moving obstacles.
+      importance: (K,) the importance term gamma lambda sum_i u_i^T Sigma^-1 e_i.
+    """
+
+    U0: np.ndarray | None = None
+    eps: np.ndarray | Draw | None = None
+    u: np.ndarray | None = None
+    e: np.ndarray | None = None
+    products: np.ndarray | None = None
+    sums: np.ndarray | None = None
+    states: np.ndarray | None = None
+    J: np.ndarray | None = None
+    moving: np.ndarray | None = None
+    importance: np.ndarray | None = None
+
+    @classmethod
+    def allocate(cls, U0, eps, x0, starts=1, sums=False, moving=False):
+        """Empty Rollouts of the perturbations eps (N, nu, K) (an array or a Draw) of U0
+        (N, nu) from x0 ((3,), or (3, S) with starts = S > 1), with the arrays that the seams
+        fill; sums, moving: whether to keep those too."""
+        n, nu, k = eps.shape
+        return cls(
+            U0, eps, np.empty((n, nu, k)), np.empty((n, nu, k)), np.zeros((nu, k)),
+            np.zeros((nu, k)) if sums else None, start_states(x0, n, starts, k),
+            np.empty(starts * k), np.empty(starts * k) if moving else None, np.empty(k),
+        )  # fmt: skip
+
+    @property
+    def K(self):  # noqa: N802 (the paper's name)
+        """The number of samples."""
+        return self.u.shape[2]
+
+    def spans(self, cols):
+        """The columns (c0, c1) of states, J and moving that hold the samples cols = (j0, j1):
+        one range per start state (one for all when cols are all the samples)."""
+        k, total = self.K, len(self.J)
+        if cols == (0, k):
+            return ((0, total),)
+        return tuple((c + cols[0], c + cols[1]) for c in range(0, total, k))
+
+
+def start_states(x0, n, starts, k):
+    """Rollout states (3, n + 1, starts k), empty but for the start states: x0 (3,), (3, k) or
+    (3, starts) (columns s k .. s k + k - 1 start from x0[:, s])."""
+    states = np.empty((3, n + 1, starts * k))
+    states.reshape(3, n + 1, starts, k)[:, 0] = np.reshape(x0, (3, starts, -1))
+    return states
 
 
 def shifted(plan):

@@ -68,24 +68,18 @@ class MPPI(Controller):
     the next warm start.
     """
 
-    def rollouts(self, state, sums=False, moving=False):
-        """Sample, roll out and score: eps (N, nu, K), states (3, N + 1, K), J (K,), S (K,);
-        with sums=True also the horizon sums of eps (nu, K) (see Controller.controls), with
-        moving=True also J's moving-obstacle term (K,) (None: 0)."""
-        eps, states, J, importance, *out = self.perturbed_rollouts(state, None, 1, sums, moving)
-        return eps, states, J, J + importance, *out
-
     def record(self, eps, states, J, S):
         d = self.diagnostics
         d.eps, d.states, d.J, d.S = eps.transpose(2, 0, 1), states.transpose(2, 1, 0), J, S
         d.warm_start = self.U
 
     def _solve(self, state):
-        eps, states, J, S = self.rollouts(state)
+        r = self.perturbed_rollouts(state)
+        S = r.J + r.importance
         lam = self.temperature(S)
         with self.timer("update"):
-            plan, w = mppi_update(self.U, eps, S, lam)
-        self.record(eps, states, J, S)
+            plan, w = mppi_update(self.U, r.e, S, lam)
+        self.record(r.e, r.states, r.J, S)
         d = self.diagnostics
         d.weights, d.ess, d.lambda_ = w, effective_sample_size(w), lam
         return self.finish(plan)

@@ -240,20 +240,20 @@ class TubeMPPI(MPPI):
         start states (heading increments and sinc terms shared).
         """
         if z.tolist() == state.tolist():
-            eps, states, J, importance = self.perturbed_rollouts(state)
-            S = J + importance
+            r = self.perturbed_rollouts(state)
+            S = r.J + r.importance
             m = S.min()
-            return eps, states, J, S, bool(m < m + self.reset_threshold)
+            return r.e, r.states, r.J, S, bool(m < m + self.reset_threshold)
         K = self.K
-        eps, states, J, importance = self.perturbed_rollouts(np.column_stack([z, state]), None, 2)
-        J_nom, J_real = J[:K], J[K:]
-        S_nom, S_real = J_nom + importance, J_real + importance
+        r = self.perturbed_rollouts(np.column_stack([z, state]), starts=2)
+        J_nom, J_real = r.J[:K], r.J[K:]
+        S_nom, S_real = J_nom + r.importance, J_real + r.importance
         reset = S_real.min() < S_nom.min() + self.reset_threshold or (
             deviation > self.max_deviation
         )
         if reset:
-            return eps, states[:, :, K:], J_real, S_real, reset
-        return eps, states[:, :, :K], J_nom, S_nom, reset
+            return r.e, r.states[:, :, K:], J_real, S_real, reset
+        return r.e, r.states[:, :, :K], J_nom, S_nom, reset
 
     def _feedback(self, z, state, plan):
         """K_0 (x - z) (nu,) of the time-varying LQR along the nominal plan (0 when x is z)."""

@@ -109,14 +109,8 @@ class Controller:
         prediction=None,
         **other,
     ):
-        prediction = prediction or self.default_prediction
-        predictor = predictor_class(prediction)
-        unknown = [n for n in predictor.inputs if n not in INPUTS]
-        if unknown:
-            raise ValueError(
-                f"prediction {prediction!r} asks for inputs {unknown} that no controller gives; "
-                f"valid inputs: {', '.join(INPUTS)}"
-            )
+        self.prediction = prediction or self.default_prediction
+        predictor = predictor_for(self.prediction)
         predictor_params = {n: other.pop(n) for n in predictor.own_params if n in other}
         self.agent = make_agent(agent, **other)
         self.robot_radius = positive("robot_radius", robot_radius, allow_zero=True)
@@ -124,28 +118,17 @@ class Controller:
         self.K = positive("K", K, integer=True)
         self.N = positive("N", N, integer=True)
         self.lambda_ = temperature_param(lambda_)
-        self.ess_target = positive("ess_target", ess_target)
-        if self.ess_target > 1.0:
-            raise ValueError(f"ess_target must be in (0, 1] (a share of K); got {ess_target!r}")
+        self.ess_target = share("ess_target", ess_target)
         self.Sigma = self.agent.variances(Sigma)
         self.gamma = positive("gamma", gamma, allow_zero=True)
         self.alpha = positive("alpha", alpha, allow_zero=True)
         self.beta = positive("beta", beta, allow_zero=True)
         self.P = positive("P", P, integer=True)
-        perturbation = self.agent.default_perturbation if perturbation is None else perturbation
-        if perturbation not in PERTURBATIONS:
-            raise ValueError(f"perturbation must be one of {PERTURBATIONS}; got {perturbation!r}")
-        self.perturbation = perturbation
+        self.perturbation = perturbation_param(perturbation, self.agent)
         self.resolution = positive("resolution", resolution)
         self.obstacle_margin = positive("obstacle_margin", obstacle_margin, allow_zero=True)
         self.threads = positive("threads", threads, integer=True)
-        generator = isinstance(seed, np.random.Generator)
-        if not (seed is None or generator or isinstance(seed, numbers.Integral) and seed >= 0):
-            raise ValueError(
-                f"seed must be None, an int >= 0 or a np.random.Generator; got {seed!r}"
-            )
-        self.seed = seed
-        self.prediction = prediction
+        self.seed = seed_param(seed)
         self.predictor = predictor(
             N=self.N, dt=self.dt, robot_radius=self.robot_radius,
             max_speed=self.agent.max_speed, alpha=self.alpha, beta=self.beta, P=self.P,
@@ -156,10 +139,8 @@ class Controller:
         lam = 1.0 if self.lambda_ == AUTO else self.lambda_
         self._importance_weight = (self.gamma * lam) / self.Sigma
         self._lambda_max = self.alpha / COLLISION_NATS if self.alpha else np.inf
-        self._grid = None
-        self.objective = None
         self.timer = NO_TIMER
-        self.rng = None
+        self._grid = self.objective = self.rng = None
         self.reset(seed)
 
     own_params = (
@@ -494,6 +475,43 @@ def constant_steps(raw, n):
     view = np.ndarray((n, *raw.shape[1:]), raw.dtype, raw, 0, (0, *raw.strides[1:]))
     view.flags.writeable = False
     return view
+
+
+def predictor_for(prediction):
+    """The predictor class named `prediction`; a ValueError when it asks for inputs that no
+    controller gives."""
+    predictor = predictor_class(prediction)
+    unknown = [n for n in predictor.inputs if n not in INPUTS]
+    if unknown:
+        raise ValueError(
+            f"prediction {prediction!r} asks for inputs {unknown} that no controller gives; "
+            f"valid inputs: {', '.join(INPUTS)}"
+        )
+    return predictor
+
+
+def share(name, value):
+    """value as a float in (0, 1] (a share of K); a ValueError for anything else."""
+    checked = positive(name, value)
+    if checked > 1.0:
+        raise ValueError(f"{name} must be in (0, 1] (a share of K); got {value!r}")
+    return checked
+
+
+def perturbation_param(value, agent):
+    """One of PERTURBATIONS, the agent's default for None; a ValueError for anything else."""
+    value = agent.default_perturbation if value is None else value
+    if value not in PERTURBATIONS:
+        raise ValueError(f"perturbation must be one of {PERTURBATIONS}; got {value!r}")
+    return value
+
+
+def seed_param(seed):
+    """seed unchanged if it is None, an int >= 0 or a np.random.Generator; else a ValueError."""
+    generator = isinstance(seed, np.random.Generator)
+    if not (seed is None or generator or isinstance(seed, numbers.Integral) and seed >= 0):
+        raise ValueError(f"seed must be None, an int >= 0 or a np.random.Generator; got {seed!r}")
+    return seed
 
 
 def temperature_param(value):

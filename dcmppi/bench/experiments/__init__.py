@@ -23,7 +23,7 @@ from typing import NamedTuple
 import numpy as np
 
 from dcmppi.bench.episodes.runner import EpisodeSpec
-from dcmppi.bench.experiments.schema import ExperimentError, parse
+from dcmppi.bench.experiments.schema import RESERVED, ExperimentError, check_params, parse
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -220,7 +220,13 @@ class Experiment:
         return exp
 
     def with_params(self, task_params: dict, controller_params: dict) -> Experiment:
-        """Task and shared controller parameters added from the command line."""
+        """Task and shared controller parameters added (the command line's, `dcmppi.bench.run`'s);
+        a name set per episode or a value that is no finite JSON raises ValueError."""
+        source = f"experiment {self.name}"
+        task_params = check_params(source, "task_params", task_params, RESERVED["task_params"])
+        controller_params = check_params(
+            source, "controller_params", controller_params, RESERVED["controller_params"]
+        )
         if self.env_param in task_params:
             raise ValueError(
                 f"--task-param {self.env_param}=...: experiment {self.name} sets "

@@ -92,7 +92,9 @@ def _table(source, key, data, keys, required=()) -> dict:
     return data
 
 
-def _params(source, key, data, reserved) -> dict:
+def check_params(source, key, data, reserved) -> dict:
+    """`data` (parameters at `key`) checked: no name in `reserved`, values JSON without NaN or
+    infinities; a copy."""
     for name, value in data.items():
         if name in reserved:
             raise ExperimentError(source, f"{key}.{name}", f"set per episode ({reserved[name]})")
@@ -172,10 +174,10 @@ def parse(data: dict, source: str, resolve: bool = True) -> dict:
         "episodes": episodes,
         "base_seed": base_seed,
         "env_param": env_param,
-        "task_params": _params(
+        "task_params": check_params(
             source, "task_params", data.get("task_params", {}), RESERVED["task_params"]
         ),
-        "controller_params": _params(
+        "controller_params": check_params(
             source,
             "controller_params",
             data.get("controller_params", {}),
@@ -219,6 +221,6 @@ def _row(source, i, data, resolve) -> dict:
     return {
         "label": label,
         "controller": controller,
-        "params": _params(source, f"{key}.params", data.get("params", {}), RESERVED["params"]),
+        "params": check_params(source, f"{key}.params", data.get("params", {}), RESERVED["params"]),
         "paper": paper,
     }

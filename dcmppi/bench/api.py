@@ -1,0 +1,187 @@
+"""The benchmark from Python: `run` an experiment into a results database, `load` its episodes.
+
+    import dcmppi.bench
+    done = dcmppi.bench.run("static", episodes=20, workers=2, db="results/static.db")
+    episodes = dcmppi.bench.load(done.db)  # a pandas DataFrame, one row per episode
+
+`dcmppi bench` is `run` behind its options. A rerun with the same database resumes: only the
+episodes the database lacks (or holds as errors) run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import os
+import sys
+import time
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+from dcmppi.bench.episodes.runner import check_specs
+from dcmppi.bench.experiments import Experiment, load_experiment
+from dcmppi.bench.results.database import TABLE_COLUMNS, ResultsDB
+from dcmppi.bench.results.provenance import collect
+from dcmppi.bench.runs.execution import run_experiment
+
+__all__ = ["BenchRun", "load", "run"]
+
+
+@dataclasses.dataclass(frozen=True)
+class BenchRun:
+    """What `run` did.
+
+    experiment: the experiment's name; db: the database's path.
+    total: the episodes selected (in the shard); finished: those of them the database holds
+      without an error now, earlier runs' included.
+    ran, failed, errored: the episodes this call ran, those of them that failed (any outcome but
+      the goal) and those that ended in an error; seconds: this call's wall-clock time.
+    errors: the selection's error rows in the database (dicts with "noise", "label",
+      "env_index", "error", "traceback", ...), earlier runs' included.
+    """
+
+    experiment: str
+    db: Path
+    total: int
+    finished: int
+    ran: int
+    failed: int
+    errored: int
+    seconds: float
+    errors: list[dict]
+
+
+def run(
+    experiment: str | os.PathLike | Experiment = "static",
+    *,
+    episodes: int | None = None,
+    workers: int = 1,
+    db: str | os.PathLike | None = None,
+    rows: Sequence[str] | None = None,
+    noises: Sequence[str] | None = None,
+    task_params: Mapping | None = None,
+    controller_params: Mapping | None = None,
+    executor: str = "local",
+    ray_address: str | None = None,
+    shard: tuple[int, int] = (0, 1),
+    episode_timeout: float | None = None,
+    allow_mixed: bool = False,
+    progress: bool = True,
+    verbose: bool = True,
+) -> BenchRun:
+    """Run an experiment's episodes that the database `db` lacks; return a `BenchRun`.
+
+    experiment: a shipped experiment's name (`dcmppi.bench.experiments.experiment_names()`),
+      the path of a TOML file, or an `Experiment`.
+    episodes: environments (default: the experiment's); every row and noise runs in each.
+    workers: episodes at a time, each in a worker process; executor: "local" (processes) or
+      "ray" (`ray_address`: an existing Ray cluster's).
+    db: the SQLite results file (default: results/NAME.db; its folder is made).
+    rows: row labels of the experiment, or controller names for rows of their own (default:
+      every row); noises: noise profiles (default: the experiment's).
+    task_params, controller_params: task parameters and parameters for every controller that
+      takes them, added to the experiment's (part of the configuration the database is bound to).
+    shard: (i, n): only the environments whose index % n == i.
+    episode_timeout: seconds after which a running episode is recorded as a timeout error.
+    allow_mixed: extend a database recorded under another dcmppi version, resolved parameter
+      or input file.
+    progress: the progress line on stderr; verbose: the plan line (episodes to run) on stderr,
+      and where the finished episodes are when interrupted.
+
+    Bad input raises ValueError before anything is recorded. KeyboardInterrupt stops the
+    workers and is re-raised; the finished episodes stay in the database (rerun to resume).
+    """
+    exp = _experiment(experiment, episodes, rows, noises, task_params, controller_params)
+    _check(shard, workers, executor, ray_address, episode_timeout)
+    # one environment's episodes hold every row and noise; the others are made as they run
+    first = list(itertools.islice(exp.specs(shard), len(exp.noises) * len(exp.labels)))
+    try:
+        check_specs([spec for _, spec in first])
+    except ValueError as e:
+        raise ValueError(f"experiment {exp.name}: {e}") from e
+    path = Path(db or f"results/{exp.name}.db")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    database = ResultsDB(path, exp.config(), collect(exp, first), allow_mixed)
+    total = exp.count(shard)
+    before = sum(exp.wants(key, shard) for key in database.done())
+    of = f", shard {shard[0]}/{shard[1]} of them" if shard[1] > 1 else ""
+    _say(
+        verbose,
+        f"{exp.name}: {total} episodes ({exp.episodes} environments{of} x "
+        f"{len(exp.noises)} noise x {len(exp.labels)} rows), {before} already in {path}, "
+        f"{total - before} to run on {workers} {executor} worker(s)",
+    )
+    start = time.monotonic()
+    try:
+        bar = run_experiment(
+            exp,
+            database,
+            workers,
+            executor,
+            ray_address,
+            progress,
+            shard=shard,
+            timeout=episode_timeout,
+        )
+    except KeyboardInterrupt:
+        _say(verbose, f"\ninterrupted: finished episodes are saved in {path}; rerun to resume")
+        raise
+    finally:
+        selected = [
+            r for r in database.rows() if exp.wants((r["noise"], r["label"], r["env_index"]), shard)
+        ]
+        database.close()
+    errors = [r for r in selected if r["status"] == "error"]
+    return BenchRun(
+        exp.name, path, total, len(selected) - len(errors), bar.done, bar.failures, bar.errors,
+        time.monotonic() - start, errors,
+    )  # fmt: skip
+
+
+def load(db: str | os.PathLike | Sequence[str | os.PathLike]):
+    """The episodes of a results database as a pandas DataFrame: one row per episode, the
+    columns of the report's episodes.csv (`dcmppi.bench.results.database.TABLE_COLUMNS`:
+    noise, label, controller, env_index, seed, status, outcome, the metrics, ...).
+
+    db: a database, or a list of databases of one configuration (shards), merged as `dcmppi
+    report` merges them. Needs pandas (`pip install "dcmppi[pandas]"`)."""
+    try:
+        import pandas as pd
+    except ImportError:
+        raise ImportError('dcmppi.bench.load needs pandas: pip install "dcmppi[pandas]"') from None
+    from dcmppi.bench.reports.report import load as load_rows
+
+    rows = load_rows(db).rows
+    return pd.DataFrame([{c: r[c] for c in TABLE_COLUMNS} for r in rows], columns=TABLE_COLUMNS)
+
+
+def _experiment(experiment, episodes, rows, noises, task_params, controller_params) -> Experiment:
+    """The experiment to run: loaded, its episodes, rows and noises selected, parameters added."""
+    if not isinstance(experiment, Experiment):
+        experiment = load_experiment(os.fspath(experiment))
+    exp = experiment.select(episodes, _names(rows), _names(noises))
+    return exp.with_params(dict(task_params or {}), dict(controller_params or {}))
+
+
+def _names(names) -> tuple[str, ...] | None:
+    """None, or names as a tuple (a single string is one name)."""
+    if names is None:
+        return None
+    return (names,) if isinstance(names, str) else tuple(names)
+
+
+def _check(shard, workers, executor, ray_address, episode_timeout) -> None:
+    i, n = shard
+    if not 0 <= i < n:
+        raise ValueError(f"shard (i, n) needs 0 <= i < n, got {shard}")
+    if workers < 1:
+        raise ValueError(f"--workers must be >= 1, got {workers}")
+    if ray_address and executor != "ray":
+        raise ValueError("--ray-address is for Ray's workers: add --executor ray")
+    if episode_timeout is not None and not episode_timeout > 0:
+        raise ValueError(f"--episode-timeout must be > 0 seconds, got {episode_timeout}")
+
+
+def _say(verbose: bool, line: str) -> None:
+    if verbose:
+        print(line, file=sys.stderr)

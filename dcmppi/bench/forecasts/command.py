@@ -1,0 +1,120 @@
+"""`dcmppi predictor train` (a learned predictor's model from recordings) and `dcmppi predictor
+eval` (the standard ETH/UCY protocol): `add_parser(subparsers)` adds the command, `run(args)`
+runs it."""
+
+import json
+
+from dcmppi.bench.forecasts import evaluation
+from dcmppi.control.predictors import learned
+from dcmppi.tasks import recordings
+
+
+def add_parser(subparsers):
+    """Adds `predictor` with its subcommands `train` and `eval` to an argparse subparsers."""
+    p = subparsers.add_parser(
+        "predictor",
+        help="train the learned predictor on recorded crowds; evaluate forecasts on ETH/UCY",
+        description="train the learned predictor on recorded crowds; evaluate forecasts on "
+        "ETH/UCY (observe 8 frames, predict 12, leave one scene out)",
+    )
+    p.set_defaults(func=run)
+    sub = p.add_subparsers(dest="action", required=True)
+    folder = (
+        f"folder of the ETH/UCY files (default: ${recordings.CROWDS_ENV}); "
+        "not needed for --data paths"
+    )
+
+    t = sub.add_parser("train", help="train a learned model; print its sha256")
+    data = t.add_mutually_exclusive_group(required=True)
+    data.add_argument(
+        "--data",
+        nargs="+",
+        metavar="FILE",
+        help="four-column files (frame id x y): paths, or names of " + ", ".join(recordings.FILES),
+    )
+    data.add_argument(
+        "--leave-out",
+        choices=list(recordings.SCENES),
+        metavar="SCENE",
+        help="every ETH/UCY file but this test scene's (the standard split): "
+        + ", ".join(recordings.SCENES),
+    )
+    t.add_argument("--out", required=True, help="the model file to write (.npz)")
+    t.add_argument("--seed", type=int, default=0, help="seed of the training (default 0)")
+    t.add_argument(
+        "--period",
+        type=float,
+        default=recordings.PERIOD,
+        help=f"seconds between annotated frames, every file alike (default {recordings.PERIOD}, "
+        "as forecasting papers read ETH/UCY)",
+    )
+    t.add_argument("--max-windows", type=int, help="train on this many windows, drawn by --seed")
+    t.add_argument("--folder", help=folder)
+
+    e = sub.add_parser("eval", help="ADE/FDE, KDE NLL and coverage on the five ETH/UCY scenes")
+    e.add_argument(
+        "--predictors",
+        default=",".join(evaluation.ROWS),
+        help="comma-separated rows: cv (one sample), cv-noise (25 deg heading noise), "
+        "cv-sampled (the cv predictor) or any registered predictor (default: "
+        + ",".join(evaluation.ROWS)
+        + ")",
+    )
+    e.add_argument(
+        "--scenes", default=",".join(recordings.SCENES), help="comma-separated test scenes"
+    )
+    e.add_argument(
+        "--model",
+        action="append",
+        metavar="SCENE=PATH",
+        help="the learned model tested on SCENE (repeatable; default: one trained per scene "
+        "on the others' files with --seed)",
+    )
+    e.add_argument("--seed", type=int, default=0, help="seed of samples and training")
+    e.add_argument("--limit", type=int, help="at most this many windows per scene")
+    e.add_argument("--folder", help=folder)
+    e.add_argument("--json", action="store_true", help="print one JSON object")
+    return p
+
+
+def run(args) -> int:
+    """Runs `dcmppi predictor train|eval`; returns the exit status."""
+    return {"train": train, "eval": evaluate}[args.action](args)
+
+
+def train(args) -> int:
+    names = recordings.train_files(args.leave_out) if args.leave_out else args.data
+    windows = recordings.windows([recordings.load(n, args.folder, args.period) for n in names])
+    model = learned.fit(windows, args.seed, max_windows=args.max_windows)
+    model.save(args.out)
+    print(
+        f"{args.out}: {len(model.features)} windows of {len(names)} files, shrink "
+        f"{model.shrink:.2f}, sha256 {learned.sha256(args.out)}"
+    )
+    return 0
+
+
+def evaluate(args) -> int:
+    models = {}
+    for item in args.model or ():
+        scene, sep, path = item.partition("=")
+        if not sep or scene not in recordings.SCENES:
+            raise ValueError(
+                f"--model {item!r}: expected SCENE=PATH, SCENE one of "
+                + ", ".join(recordings.SCENES)
+            )
+        models[scene] = path
+    result = evaluation.evaluate(
+        _split(args.predictors),
+        _split(args.scenes),
+        args.folder,
+        models or None,
+        args.seed,
+        args.limit,
+    )
+    print(json.dumps(result, indent=1) if args.json else evaluation.table(result))
+    return 0
+
+
+def _split(text):
+    return [part.strip() for part in text.split(",") if part.strip()]

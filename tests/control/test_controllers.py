@@ -37,7 +37,7 @@ def test_registry_lists_names():
         ({"perturbation": "wiggly"}, "perturbation"),
         ({"gamma": -1.0}, "gamma"),
         ({"obstacle_margin": -0.1}, "obstacle_margin"),
-        ({"agent": "tank"}, "unknown agent 'tank'; valid agents: dubins, holonomic, unicycle"),
+        ({"agent": "tank"}, "unknown agent 'tank'; valid names: dubins, holonomic, unicycle"),
         ({"v_max": 2.0}, "v_max"),  # a holonomic parameter given to the (default) dubins agent
         ({"agent": "holonomic", "v_max": float("inf")}, "v_max"),
         ({"agent": "holonomic", "Sigma": 1.0}, "one variance per control"),

@@ -29,7 +29,7 @@ from dcmppi.render.overlay import cluster_labels, cluster_rgb, obstacle_futures
 def plan_cost(controller, state) -> float:
     """J of the controller's plan rolled out without noise from `state`."""
     plan = controller.diagnostics.plan
-    _, J = controller.evaluate(np.asarray(state, dtype=float), plan[:, :, None])
+    _, J = controller.rollout_costs(np.asarray(state, dtype=float), plan[:, :, None])
     return float(J[0])
 
 

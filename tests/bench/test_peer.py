@@ -67,7 +67,7 @@ def test_cost_of_rollouts_equals_evaluate():
     rng = np.random.default_rng(2)
     # (N, nu, R) within the bounds: a fan of arcs, from hard right to hard left
     u = np.clip(np.linspace(-1, 1, 64) + rng.normal(0, 0.3, (ctrl.N, 1, 64)), -1, 1)
-    states, J = ctrl.evaluate(START, u)
+    states, J = ctrl.rollout_costs(START, u)
     theirs = problem.cost(START, torch.from_numpy(u.transpose(2, 0, 1))).numpy()
     hits = OccupancyGrid(STATIC, ctrl.robot_radius, ctrl.resolution, BOUNDS).count(*states[:2])
     assert 0 < np.count_nonzero(hits) < len(hits)  # the occupancy lookup matters

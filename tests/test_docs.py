@@ -280,3 +280,29 @@ def test_the_history_pattern_finds_what_it_should():
         "issue 24",
     ]
     assert not _history("round(x), rounds to float32, code 8eadbbb8, 0x7fffffff, 1e-7, 2048")
+
+
+def test_your_own_planner_step_section_runs():
+    """The subclass's evaluate() seam steers the plan: the robot stays left of the line it
+    charges, where plain mppi's path crosses it; two threads plan as one."""
+    from dcmppi.control import make_controller
+
+    ((lang, code),) = blocks(section("## Your own planner step", EXTENDING))
+    assert lang == "python" and code.count("\n") <= 25
+    namespace = {}
+    exec(compile(code, EXTENDING, "exec"), namespace)
+    np, keep_left = namespace["np"], namespace["KeepLeft"]
+    assert namespace["state"][0] > 4.0  # it drove toward the goal
+
+    def lowest_y(ctrl):
+        state, lowest = np.zeros(3), np.inf
+        for _ in range(50):
+            state = ctrl.agent.step(state, ctrl.act(state, np.array([10.0, 0.0]), None), 0.1)
+            lowest = min(lowest, state[1])
+        return lowest
+
+    assert lowest_y(keep_left(agent="holonomic", seed=0, threads=1)) > 0.0
+    assert lowest_y(make_controller("mppi", agent="holonomic", seed=0)) < 0.0
+    args = (np.zeros(3), np.array([10.0, 0.0]), None)
+    one = keep_left(agent="holonomic", seed=0, threads=1).act(*args)
+    np.testing.assert_array_equal(one, keep_left(agent="holonomic", seed=0, threads=2).act(*args))

@@ -2,7 +2,7 @@
 
     import dcmppi.bench
     done = dcmppi.bench.run("static", episodes=20, workers=2, db="results/static.db")
-    episodes = dcmppi.bench.load(done.db)  # pandas DataFrame, one row per episode
+    episodes = dcmppi.bench.load(done)  # a pandas DataFrame, one row per episode
 
 `run`, `load` and `BenchRun` (`api`, what `dcmppi bench` wraps) load on first use, so
 `import dcmppi.bench` stays light. In layers, each importing only those before it

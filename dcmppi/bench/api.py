@@ -2,7 +2,7 @@
 
     import dcmppi.bench
     done = dcmppi.bench.run("static", episodes=20, workers=2, db="results/static.db")
-    episodes = dcmppi.bench.load(done.db)  # a pandas DataFrame, one row per episode
+    episodes = dcmppi.bench.load(done)  # a pandas DataFrame, one row per episode
 
 `dcmppi bench` is `run` behind its options. A rerun with the same database resumes: only the
 episodes the database lacks (or holds as errors) run.
@@ -93,65 +93,26 @@ def run(
     """
     exp = _experiment(experiment, episodes, rows, noises, task_params, controller_params)
     _check(shard, workers, executor, ray_address, episode_timeout)
-    # one environment's episodes hold every row and noise; the others are made as they run
-    first = list(itertools.islice(exp.specs(shard), len(exp.noises) * len(exp.labels)))
-    try:
-        check_specs([spec for _, spec in first])
-    except ValueError as e:
-        raise ValueError(f"experiment {exp.name}: {e}") from e
-    path = Path(db or f"results/{exp.name}.db")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    database = ResultsDB(path, exp.config(), collect(exp, first), allow_mixed)
-    total = exp.count(shard)
-    before = sum(exp.wants(key, shard) for key in database.done())
-    of = f", shard {shard[0]}/{shard[1]} of them" if shard[1] > 1 else ""
-    _say(
-        verbose,
-        f"{exp.name}: {total} episodes ({exp.episodes} environments{of} x "
-        f"{len(exp.noises)} noise x {len(exp.labels)} rows), {before} already in {path}, "
-        f"{total - before} to run on {workers} {executor} worker(s)",
-    )
-    start = time.monotonic()
-    try:
-        bar = run_experiment(
-            exp,
-            database,
-            workers,
-            executor,
-            ray_address,
-            progress,
-            shard=shard,
-            timeout=episode_timeout,
-        )
-    except KeyboardInterrupt:
-        _say(verbose, f"\ninterrupted: finished episodes are saved in {path}; rerun to resume")
-        raise
-    finally:
-        selected = [
-            r for r in database.rows() if exp.wants((r["noise"], r["label"], r["env_index"]), shard)
-        ]
-        database.close()
-    errors = [r for r in selected if r["status"] == "error"]
-    return BenchRun(
-        exp.name, path, total, len(selected) - len(errors), bar.done, bar.failures, bar.errors,
-        time.monotonic() - start, errors,
-    )  # fmt: skip
+    database = _open(exp, shard, db, allow_mixed)
+    how = dict(ray_address=ray_address, progress=progress, shard=shard, timeout=episode_timeout)
+    return _execute(exp, database, workers, executor, verbose, **how)
 
 
-def load(db: str | os.PathLike | Sequence[str | os.PathLike]):
+def load(db: str | os.PathLike | BenchRun | Sequence[str | os.PathLike]):
     """The episodes of a results database as a pandas DataFrame: one row per episode, the
     columns of the report's episodes.csv (`dcmppi.bench.results.database.TABLE_COLUMNS`:
     noise, label, controller, env_index, seed, status, outcome, the metrics, ...).
 
-    db: a database, or a list of databases of one configuration (shards), merged as `dcmppi
-    report` merges them. Needs pandas (`pip install "dcmppi[pandas]"`)."""
+    db: a database, the `BenchRun` that `run` returned, or a list of databases of one
+    configuration (shards), merged as `dcmppi report` merges them. Needs pandas (`pip install
+    "dcmppi[pandas]"`)."""
     try:
         import pandas as pd
     except ImportError:
         raise ImportError('dcmppi.bench.load needs pandas: pip install "dcmppi[pandas]"') from None
     from dcmppi.bench.reports.report import load as load_rows
 
-    rows = load_rows(db).rows
+    rows = load_rows(db.db if isinstance(db, BenchRun) else db).rows
     return pd.DataFrame([{c: r[c] for c in TABLE_COLUMNS} for r in rows], columns=TABLE_COLUMNS)
 
 
@@ -161,6 +122,52 @@ def _experiment(experiment, episodes, rows, noises, task_params, controller_para
         experiment = load_experiment(os.fspath(experiment))
     exp = experiment.select(episodes, _names(rows), _names(noises))
     return exp.with_params(dict(task_params or {}), dict(controller_params or {}))
+
+
+def _open(exp: Experiment, shard, db, allow_mixed: bool) -> ResultsDB:
+    """The database to run `exp` into, once its first environment's rows and noises build (a
+    bad name, parameter or world raises ValueError before anything is recorded)."""
+    # one environment's episodes hold every row and noise; the others are made as they run
+    first = list(itertools.islice(exp.specs(shard), len(exp.noises) * len(exp.labels)))
+    try:
+        check_specs([spec for _, spec in first])
+    except ValueError as e:
+        raise ValueError(f"experiment {exp.name}: {e}") from e
+    path = Path(db or f"results/{exp.name}.db")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return ResultsDB(path, exp.config(), collect(exp, first), allow_mixed)
+
+
+def _execute(exp, database, workers, executor, verbose, shard, **how) -> BenchRun:
+    """Run the episodes of `exp` in `shard` that `database` lacks (`how`: run_experiment's
+    ray_address, progress, timeout); close the database; say what was done."""
+    total = exp.count(shard)
+    before = sum(exp.wants(key, shard) for key in database.done())
+    of = f", shard {shard[0]}/{shard[1]} of them" if shard[1] > 1 else ""
+    _say(
+        verbose,
+        f"{exp.name}: {total} episodes ({exp.episodes} environments{of} x "
+        f"{len(exp.noises)} noise x {len(exp.labels)} rows), {before} already in "
+        f"{database.path}, {total - before} to run on {workers} {executor} worker(s)",
+    )
+    start = time.monotonic()
+    try:
+        bar = run_experiment(exp, database, workers, executor, shard=shard, **how)
+    except KeyboardInterrupt:
+        _say(
+            verbose,
+            f"\ninterrupted: finished episodes are saved in {database.path}; rerun to resume",
+        )
+        raise
+    finally:
+        rows = database.rows()
+        selected = [r for r in rows if exp.wants((r["noise"], r["label"], r["env_index"]), shard)]
+        database.close()
+    errors = [r for r in selected if r["status"] == "error"]
+    return BenchRun(
+        exp.name, database.path, total, len(selected) - len(errors), bar.done, bar.failures,
+        bar.errors, time.monotonic() - start, errors,
+    )  # fmt: skip
 
 
 def _names(names) -> tuple[str, ...] | None:

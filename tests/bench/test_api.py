@@ -1,6 +1,7 @@
 """The benchmark from Python: `dcmppi.bench.run` writes what `dcmppi bench` writes, `load` gives
 the episodes as a DataFrame. Episodes are short (the `blocked` task, K=32, N=20, 1 s)."""
 
+import importlib.util
 import subprocess
 import sys
 
@@ -58,6 +59,8 @@ def test_run_writes_the_rows_the_cli_writes_and_resumes(tiny, tmp_path, capsys):
     )
     assert (again.total, again.finished, again.ran) == (3, 3, 1)  # environment 2 only
     assert [r["env_index"] for r in _rows(done.db) if r["label"] == "mppi"] == [0, 1, 2]
+    if importlib.util.find_spec("pandas"):
+        assert len(dcmppi.bench.load(again)) == 5  # its database's episodes, not only its own
 
 
 @pytest.mark.parametrize(

@@ -13,7 +13,7 @@ defaults K = 500, N = 50); every act() sees what the task would observe, map bou
   the feedback is zero.
 - crowd: the crowd task's world, 100 moving cylinders moving as in the task (exact Dubins arcs,
   reflecting off the walls); `dc` with P = 25 (and the others for reference).
-- corridor, crowd-sf (issue 24): the corridor task's world (12 social-force pedestrians, its
+- corridor, crowd-sf: the corridor task's world (12 social-force pedestrians, its
   walls as static cylinder rows) and the crowd task's with behavior "social_force" (100
   walkers), the pedestrians (tasks.pedestrians.Pedestrians) built and advanced once per control
   period as the task does, act() given their observed velocities (moving_velocity) too; the
@@ -34,15 +34,28 @@ Modules: `worlds` (the problems), `cases` (the table's rows and the variants), `
 closed loop, interleaved timing), `profile` (`--profile`, through the controllers' timer hook),
 `episodes` (`--profile EXPERIMENT`: bench episodes, dcmppi.bench.episodes.runner's, end to end),
 `fingerprint` (`--fingerprint`), `cores` (the machine's gains from threads), `scaling`
-(`--scaling`: the curves, their fits and plot), `cli` (the options and the table). Only the
-entry points (`main`, `python -m dcmppi.bench.timing`) tune malloc for the process. May import
+(`--scaling`: the curves, their fits and plot), `cli` (what each mode runs and prints; the
+options are dcmppi.cli.timing's, a subcommand of the one `dcmppi` parser). `main` and `python -m
+dcmppi.bench.timing` are `dcmppi timing`, whose entry point tunes malloc for the process (only
+entry points do). May import
 dcmppi.control, the tasks' world generators (dcmppi.tasks.worlds), their pedestrians and task
 classes (for the pedestrian problems' worlds and next goals), dcmppi.bench.timing.peer,
 dcmppi.bench's runner, results and experiments (the episode profile), and dcmppi.render (the
-scaling plot, given plain numbers); nothing imports it but the command line.
+scaling plot, given plain numbers), and in `main` the command line (dcmppi.cli), which alone
+imports it.
 """
 
-from dcmppi.bench.timing.cli import main
+import sys
+
 from dcmppi.bench.timing.worlds import forest, push, pushed
+
+
+def main(argv: list[str] | None = None) -> int:
+    """`dcmppi timing ARGV` (default: sys.argv[1:]) through the `dcmppi` parser; returns the exit
+    status (bad options: SystemExit 2, one line)."""
+    from dcmppi import cli
+
+    return cli.main(["timing", *(sys.argv[1:] if argv is None else argv)])
+
 
 __all__ = ["main", "forest", "push", "pushed"]

@@ -2,6 +2,6 @@
 
 import sys
 
-from dcmppi.bench.timing.cli import main
+from dcmppi.bench.timing import main
 
 sys.exit(main())

@@ -1,7 +1,7 @@
-"""The options of `dcmppi timing` and its table; `--against`, `--profile [EXPERIMENT]`,
-`--fingerprint`, `--scaling`."""
+"""What `dcmppi timing` runs and prints in each of its modes: the table, `--profile`,
+`--fingerprint`, `--against`, `--profile EXPERIMENT`, `--scaling` (its options and their checks:
+dcmppi.cli.timing). Each takes the parsed options and returns the exit status."""
 
-import argparse
 import json
 import platform
 import sys
@@ -12,142 +12,17 @@ from dcmppi.bench.results.provenance import kernels
 from dcmppi.bench.timing import cases, episodes, scaling
 from dcmppi.bench.timing.cores import machine_gains
 from dcmppi.bench.timing.fingerprint import fingerprint, print_fingerprint
-from dcmppi.bench.timing.loop import BLOCK, ClosedLoop, time_cases
+from dcmppi.bench.timing.loop import ClosedLoop, time_cases
 from dcmppi.bench.timing.profile import print_profile, profile
 from dcmppi.control import defaults
-from dcmppi.control.kernels._malloc import tune_malloc
 
-STEPS = 100  # control steps per case of the table, the profile, the fingerprint and --against
-ENVIRONMENTS, WORKERS = 10, 2  # --profile EXPERIMENT: environments run, workers projected
-# pytorch_mppi / ours wanted at a size (K, N), and ours on one thread / on two (issue 26)
+# pytorch_mppi / ours wanted at a size (K, N), and ours on one thread / on two
 AGAINST_TARGETS = {(defaults.K, defaults.N): 14, (2048, 100): 12}
 THREADS_TARGETS = {(2048, 100): 1.7}
 
 
-class _Parser(argparse.ArgumentParser):
-    """An ArgumentParser whose errors are one line: "dcmppi timing: error: ..." (exit 2)."""
-
-    def error(self, message):
-        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
-
-
-def main(argv=None):
-    """Run the timing benchmark; print a table or JSON. Returns 0 (2: --against without its
-    packages, or --out unwritable)."""
-    parser = _Parser(
-        prog="dcmppi timing",
-        description="median controller time per control step on fixed problems",
-    )
-    parser.add_argument("--json", action="store_true", help="print one JSON object")
-    parser.add_argument(
-        "--steps",
-        type=int,
-        help=f"control steps per case (default {STEPS}; --scaling: {scaling.STEPS} per point)",
-    )
-    parser.add_argument(
-        "--block", type=int, default=BLOCK, help="consecutive steps of a case (1: cold caches)"
-    )
-    parser.add_argument(
-        "--against",
-        choices=["pytorch_mppi"],
-        help="time pytorch_mppi beside our mppi on the same problem (needs the extra `peer`)",
-    )
-    parser.add_argument("--K", type=int, help=f"--against: samples per step (default {defaults.K})")
-    parser.add_argument("--N", type=int, help=f"--against: horizon steps (default {defaults.N})")
-    parser.add_argument(
-        "--threads",
-        type=int,
-        default=1,
-        help="--against: also time our mppi with this many threads, interleaved (default 1: not)",
-    )
-    parser.add_argument(
-        "--scaling",
-        action="store_true",
-        help="ms per step of each controller as K, N, cylinders, moving obstacles and P grow",
-    )
-    parser.add_argument("--out", help="--scaling: write scaling.json and scaling.png here")
-    parser.add_argument(
-        "--profile",
-        nargs="?",
-        const="",
-        metavar="EXPERIMENT",
-        help="where one step's time goes, in microseconds; with an experiment (a name or a TOML "
-        "file, as `dcmppi bench --experiment`), where its bench episodes' time goes, end to end",
-    )
-    parser.add_argument(
-        "--environments",
-        type=int,
-        help=f"--profile EXPERIMENT: environments of each row to run (default {ENVIRONMENTS})",
-    )
-    parser.add_argument(
-        "--workers",
-        type=int,
-        help=f"--profile EXPERIMENT: workers of the projected full run (default {WORKERS})",
-    )
-    parser.add_argument(
-        "--fingerprint",
-        action="store_true",
-        help="hash every closed loop's actions (identical before and after a speed change)",
-    )
-    args = parser.parse_args(argv)
-    if args.profile and args.steps is not None:
-        parser.error("--profile EXPERIMENT runs whole episodes: choose --environments, not --steps")
-    if args.profile and (args.against or args.scaling or args.fingerprint):
-        parser.error(
-            "--profile EXPERIMENT runs on its own: drop --against, --scaling, --fingerprint"
-        )
-    if args.steps is None:
-        args.steps = scaling.STEPS if args.scaling else STEPS
-    if args.steps < 5:
-        parser.error("--steps must be >= 5")
-    if args.block < 1:
-        parser.error("--block must be >= 1")
-    for name in ("K", "N"):
-        value = getattr(args, name)
-        if value is None:
-            setattr(args, name, getattr(defaults, name))
-        elif not args.against:
-            parser.error(
-                f"--{name} sets the size of --against's problem: add --against pytorch_mppi"
-            )
-        elif not 1 <= value <= 100_000:
-            parser.error(f"--{name} must be a whole number in 1 .. 100000; got {value}")
-    if args.threads != 1 and not args.against:
-        parser.error("--threads is --against's second row of ours: add --against pytorch_mppi")
-    if not 1 <= args.threads <= 64:
-        parser.error(f"--threads must be a whole number in 1 .. 64; got {args.threads}")
-    for name, default in (("environments", ENVIRONMENTS), ("workers", WORKERS)):
-        value = getattr(args, name)
-        if value is None:
-            setattr(args, name, default)
-        elif not args.profile:
-            parser.error(f"--{name} is for --profile EXPERIMENT: add --profile static (or another)")
-        elif value < 1:
-            parser.error(f"--{name} must be >= 1; got {value}")
-    if args.out and not args.scaling:
-        parser.error("--out is where --scaling writes its JSON and plot; add --scaling")
-    tune_malloc()  # process-wide: only entry points set it
-    if args.against:
-        return against(args)
-    if args.scaling:
-        return scale(args)
-    if args.profile:
-        return profile_experiment(args)
-    if args.profile is not None:
-        results = profile(cases.PROFILE_CASES, args.steps)
-        if args.json:
-            print(json.dumps(results, indent=2))
-        else:
-            print_profile(results, args.steps)
-        return 0
-    if args.fingerprint:
-        rows = fingerprint(cases.FINGERPRINT_CASES, args.steps)
-        machine = kernels()
-        if args.json:
-            print(json.dumps({"steps": args.steps, "kernels": machine, "results": rows}, indent=2))
-        else:
-            print_fingerprint(rows, args.steps, machine)
-        return 0
+def timings(args):
+    """The table (or its JSON): every case's median and p95 ms per step, ratio and target."""
     rows = table(cases.CASES, args.steps, args.block)
     info = {"K": defaults.K, "N": defaults.N, "P": defaults.P, "steps": args.steps}
     info["block"] = args.block
@@ -168,6 +43,27 @@ def main(argv=None):
             f"{r['case']:<21} {r['problem']:<11} {r['median_ms']:9.3f} {r['p95_ms']:7.3f} "
             f"{r['ratio']:6.2f}  {r['target']}"
         )
+    return 0
+
+
+def profile_steps(args):
+    """`--profile`: where one step's time goes, per case, in microseconds."""
+    results = profile(cases.PROFILE_CASES, args.steps)
+    if args.json:
+        print(json.dumps(results, indent=2))
+    else:
+        print_profile(results, args.steps)
+    return 0
+
+
+def fingerprints(args):
+    """`--fingerprint`: the hash of every closed loop's actions, with this machine's kernels."""
+    rows = fingerprint(cases.FINGERPRINT_CASES, args.steps)
+    machine = kernels()
+    if args.json:
+        print(json.dumps({"steps": args.steps, "kernels": machine, "results": rows}, indent=2))
+    else:
+        print_fingerprint(rows, args.steps, machine)
     return 0
 
 
@@ -213,18 +109,23 @@ def against(args):
         result["machine_gains"] = machine_gains(args.threads)
     if args.json:
         print(json.dumps(result, indent=2))
-        return 0
+    else:
+        print_against(result, args.steps, args.block)
+    return 0
+
+
+def print_against(result: dict, steps: int, block: int) -> None:
+    """The table of `--against` (peer.compare's result): ours, ours threaded, theirs, ratios."""
     v, s = result["versions"], result["settings"]
     print(
         f"dcmppi timing --against pytorch_mppi {v['pytorch_mppi']} (torch {v['torch']}): forest, "
         f"K={s['K']} N={s['N']}, {s['perturbation']} noise, torch and BLAS on one thread, "
-        f"{args.steps} steps "
-        f"interleaved in blocks of {min(args.block, args.steps)}"
+        f"{steps} steps interleaved in blocks of {min(block, steps)}"
     )
     print(f"{'controller':<24} {'median ms':>9} {'p95 ms':>7}")
     rows = [("mppi (dcmppi)", result["ours"]), ("pytorch_mppi", result["theirs"])]
-    if threaded:
-        t = result["threaded"]
+    t = result.get("threaded")
+    if t:
         rows.insert(1, (f"mppi (dcmppi, threads={t['threads']})", t))
     for name, row in rows:
         print(f"{name:<24} {row['median_ms']:9.3f} {row['p95_ms']:7.3f}")
@@ -233,26 +134,29 @@ def against(args):
     print(
         f"pytorch_mppi / ours = {result['theirs_over_ours']:.1f}"
         + (f" (target >= {target})" if target else "")
-        + f", ours / pytorch_mppi = {result['ours_over_theirs']:.3f}; per block of {args.block} "
+        + f", ours / pytorch_mppi = {result['ours_over_theirs']:.3f}; per block of {block} "
         f"steps {q[0]:.1f}-{q[2]:.1f} between the quartiles"
     )
-    if threaded:
-        target = THREADS_TARGETS.get((s["K"], s["N"])) if t["threads"] == 2 else None
-        q = t["speedup_blocks"]
-        print(
-            f"ours / ours with threads={t['threads']} = {t['speedup']:.2f}"
-            + (f" (target >= {target})" if target else "")
-            + f", per block {q[0]:.2f}-{q[2]:.2f}; the same path: "
-            + ("yes" if t["same_path"] else "NO")
-        )
-        g = result["machine_gains"]
-        print(
-            f"this machine, {g['threads']} threads at once (the bounds of a split): scalar "
-            f"arithmetic {g['compute']:.2f} x, vector arithmetic in L1 {g['vector']:.2f} x, a "
-            f"stream beyond L2 {g['stream']:.2f} x"
-        )
+    if t:
+        _print_threads(t, result["machine_gains"], s)
     print(f"same problem: {result['same_problem']}")
-    return 0
+
+
+def _print_threads(t: dict, g: dict, s: dict) -> None:
+    """--threads T: ours on one thread over ours on T, and what T threads gain on this machine."""
+    target = THREADS_TARGETS.get((s["K"], s["N"])) if t["threads"] == 2 else None
+    q = t["speedup_blocks"]
+    print(
+        f"ours / ours with threads={t['threads']} = {t['speedup']:.2f}"
+        + (f" (target >= {target})" if target else "")
+        + f", per block {q[0]:.2f}-{q[2]:.2f}; the same path: "
+        + ("yes" if t["same_path"] else "NO")
+    )
+    print(
+        f"this machine, {g['threads']} threads at once (the bounds of a split): scalar "
+        f"arithmetic {g['compute']:.2f} x, vector arithmetic in L1 {g['vector']:.2f} x, a "
+        f"stream beyond L2 {g['stream']:.2f} x"
+    )
 
 
 def profile_experiment(args):

@@ -71,14 +71,14 @@ CASES = (
         {"agent": "holonomic", **MIXED, "Sigma": [1.0, 1.0, 0.1]},
         target_ms=2.0,
     ),
-    # pedestrians (issue 24): 12 in the corridor, 100 walkers in the crowd
+    # pedestrians: 12 in the corridor, 100 walkers in the crowd
     Case("mppi", "mppi", "corridor", WALK),
     Case("dc", "dc", "corridor", WALK),
     Case("dc-cv", "dc", "corridor", CV),
     Case("dc-social", "dc", "corridor", SOCIAL, target_ms=5.0),
     Case("mppi", "mppi", "crowd-sf", WALK),
     Case("dc-social", "dc", "crowd-sf", SOCIAL, target_ms=20.0),
-    # the size practitioners run (issue 26), and its samples split over 2 threads (same plan:
+    # the size practitioners run, and its samples split over 2 threads (same plan:
     # the two rows' fingerprints are equal)
     Case("mppi tv 2048x100", "mppi", "forest", BIG),
     Case(

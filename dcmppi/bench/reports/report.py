@@ -363,15 +363,61 @@ def _combine(first: Path, config: dict, path: Path, other: dict) -> dict:
 def provenance(data: Loaded) -> tuple[str, list[str], str]:
     """(the terminal's provenance line, report.md's Provenance section, the notice that the
     rows were recorded under several conditions ('' when not))."""
-    several = len(data.paths) > 1
     recorded = [run for run in data.runs if run["provenance"] is not None]
-    name = {
+    if not recorded:
+        line = "Provenance: not recorded (rows written before dcmppi recorded it, or without it)"
+        return line, ["## Provenance", "", line[len("Provenance: ") :].capitalize() + "."], ""
+    name = _run_names(data)
+    latest = recorded[-1]["provenance"]
+    libs = ", ".join(f"{k} {v}" for k, v in latest["libraries"].items() if v)
+    line = f"Provenance: {short(latest)}; {libs}; {_machine(latest)}"
+    md = ["## Provenance", "", *(_run_line(run, name) for run in data.runs)]
+    md += [
+        "",
+        "Resolved parameters of the latest run (defaults included; the seed varies per "
+        f"environment): task {latest['task']['name']} `{_canonical(latest['task']['params'])}`",
+    ]
+    md += [f"- `{label}` ({row['controller']}): `{_canonical(row['params'])}`"
+           for label, row in latest["rows"].items()]  # fmt: skip
+    return line, md, _mixed(data, recorded, name)
+
+
+def _run_names(data: Loaded) -> dict:
+    """{(source, run_id): "run N", or "DATABASE run N" where several databases are merged}."""
+    several = len(data.paths) > 1
+    return {
         (run["source"], run["run_id"]): (
             f"{data.paths[run['source']].name} run {run['run_id']}" if several
             else f"run {run['run_id']}"
         )
         for run in data.runs
     }  # fmt: skip
+
+
+def _run_line(run: dict, name: dict) -> str:
+    """A run's line of the Provenance section: when, episodes, code, libraries, machine, files."""
+    prov = run["provenance"]
+    started = _when(run["started"])
+    ended = _when(run["ended"]) if run["ended"] else "not ended (running or killed)"
+    text = f"- {name[(run['source'], run['run_id'])]}: {started} to {ended}, "
+    text += f"{run['episodes']} episodes; "
+    if prov is None:
+        return text + "provenance not recorded"
+    files = "; ".join(
+        f"{what} {entry['path']} sha256 {entry['sha256'][:12]}"
+        for what, entry in prov["files"].items()
+    )
+    libs = ", ".join(f"{k} {v}" for k, v in prov["libraries"].items() if v)
+    return (
+        text
+        + f"{short(prov)}; {libs}; {_machine(prov)} on {prov['host']}"
+        + (f"; files: {files}" if files else "")
+    )
+
+
+def _mixed(data: Loaded, recorded: list[dict], name: dict) -> str:
+    """The notice, with a table of the versions per row, that the rows were recorded under
+    several conditions (distinct provenances, or none recorded for some); '' when not."""
     conditions = []  # distinct provenances of the runs that own rows, in the order of the runs
     state = {}  # (source, run_id) -> index into conditions
     owning = {(r["source"], r["run_id"]) for r in data.rows}
@@ -383,42 +429,8 @@ def provenance(data: Loaded) -> tuple[str, list[str], str]:
             found = len(conditions) - 1
         state[(run["source"], run["run_id"])] = found
     unknown = [r for r in data.rows if (r["source"], r["run_id"]) not in state]
-    if not recorded:
-        line = "Provenance: not recorded (rows written before dcmppi recorded it, or without it)"
-        return line, ["## Provenance", "", line[len("Provenance: ") :].capitalize() + "."], ""
-    latest = recorded[-1]["provenance"]
-    libs = ", ".join(f"{k} {v}" for k, v in latest["libraries"].items() if v)
-    machine = _machine(latest)
-    line = f"Provenance: {short(latest)}; {libs}; {machine}"
-    md = ["## Provenance", ""]
-    for run in data.runs:
-        prov = run["provenance"]
-        started = _when(run["started"])
-        ended = _when(run["ended"]) if run["ended"] else "not ended (running or killed)"
-        text = f"- {name[(run['source'], run['run_id'])]}: {started} to {ended}, "
-        text += f"{run['episodes']} episodes; "
-        if prov is None:
-            md.append(text + "provenance not recorded")
-            continue
-        files = "; ".join(
-            f"{what} {entry['path']} sha256 {entry['sha256'][:12]}"
-            for what, entry in prov["files"].items()
-        )
-        libs_i = ", ".join(f"{k} {v}" for k, v in prov["libraries"].items() if v)
-        md.append(
-            text
-            + f"{short(prov)}; {libs_i}; {_machine(prov)} on {prov['host']}"
-            + (f"; files: {files}" if files else "")
-        )
-    md += [
-        "",
-        "Resolved parameters of the latest run (defaults included; the seed varies per "
-        f"environment): task {latest['task']['name']} `{_canonical(latest['task']['params'])}`",
-    ]
-    md += [f"- `{label}` ({row['controller']}): `{_canonical(row['params'])}`"
-           for label, row in latest["rows"].items()]  # fmt: skip
     if len(conditions) + bool(unknown) <= 1:
-        return line, md, ""
+        return ""
     what = differences(conditions[0], conditions[-1]) if len(conditions) > 1 else []
     mixed = (
         f"**Mixed**: these rows were recorded under {len(conditions) + bool(unknown)} different "
@@ -428,6 +440,11 @@ def provenance(data: Loaded) -> tuple[str, list[str], str]:
         + (f": {'; '.join(what[:3])}" if what else "")
         + ". The versions per row:"
     )
+    return mixed + "\n\n" + "\n".join(_versions_per_row(data, name))
+
+
+def _versions_per_row(data: Loaded, name: dict) -> list[str]:
+    """The table of the runs (code, episodes) that recorded each row's episodes."""
     per_row = {}
     for r in data.rows:
         key = (r["noise"], r["label"])
@@ -435,14 +452,14 @@ def provenance(data: Loaded) -> tuple[str, list[str], str]:
         per_row.setdefault(key, {}).setdefault(run, 0)
         per_row[key][run] += 1
     by_run = {(run["source"], run["run_id"]): run["provenance"] for run in data.runs}
-    table_lines = ["| Noise | Row | Runs: code (episodes) |", "|---|---|---|"]
+    lines = ["| Noise | Row | Runs: code (episodes) |", "|---|---|---|"]
     for noise, label in groups(data.rows, data.exp):
         cells = [
             f"{name.get(run, 'no run')}: {short(by_run.get(run))} ({count})"
             for run, count in sorted(per_row[(noise, label)].items(), key=str)
         ]
-        table_lines.append(f"| {noise} | {label} | {'; '.join(cells)} |")
-    return line, md, mixed + "\n\n" + "\n".join(table_lines)
+        lines.append(f"| {noise} | {label} | {'; '.join(cells)} |")
+    return lines
 
 
 def _machine(prov: dict) -> str:
@@ -473,6 +490,14 @@ def errors_section(rows: list[dict]) -> list[str]:
     return md
 
 
+DIAGNOSTICS_NOTE = (
+    "ESS: effective sample size 1 / sum(w^2) of the weights that made the plan, mean over "
+    "steps. Clusters: DBSCAN clusters per step; fallback: share of steps with no cluster, "
+    "where Alg. 1 ran over all samples (clustered and dc only). Tube deviation: the 95th "
+    "percentile over an episode's steps of |real - nominal| position, mean over episodes."
+)
+
+
 def write_report(db_paths, out_dir: str | Path, plots: bool = True, gallery: int = 0) -> str:
     """Write report.md, episodes.csv and the PNG plots into out_dir; return the text shown
     on the terminal (notices, tables, provenance).
@@ -482,68 +507,118 @@ def write_report(db_paths, out_dir: str | Path, plots: bool = True, gallery: int
       GIFs (dcmppi.bench.runs.replay.gallery) linked from report.md beside the row's numbers.
     """
     data = load(db_paths)
-    rows, exp, config = data.rows, data.exp, data.config
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     with open(out / "episodes.csv", "w", newline="") as f:
         writer_csv = csv.DictWriter(f, fieldnames=TABLE_COLUMNS, extrasaction="ignore")
         writer_csv.writeheader()
-        writer_csv.writerows(rows)
+        writer_csv.writerows(data.rows)
     prov_line, prov_md, mixed = provenance(data)
-    conflicts = ""
-    if data.conflicts:
-        shown = ", ".join(data.conflicts[:5])
-        more = f" and {len(data.conflicts) - 5} more" if len(data.conflicts) > 5 else ""
-        conflicts = (
-            f"**Conflicting databases**: {len(data.conflicts)} episodes are recorded with "
-            f"different results in two of them (the first database's row is used): {shown}{more}"
-        )
-    warning = "\n\n".join(p for p in (notice(rows, exp, data.writers), conflicts, mixed) if p)
-    scores = score_table(rows, exp)
-    metrics = metrics_table(rows, exp)
-    n_errors = sum(r["status"] == "error" for r in rows)
+    notices = (notice(data.rows, data.exp, data.writers), _conflicts(data.conflicts), mixed)
+    warning = "\n\n".join(p for p in notices if p)
+    tables = {
+        "scores": score_table(data.rows, data.exp),
+        "metrics": metrics_table(data.rows, data.exp),
+        "diagnostics": diagnostics_table(data.rows, data.exp),
+    }
+    text = _terminal(data, tables, warning, prov_line)
+    links = _gallery(data.paths, out, gallery) if gallery > 0 else None
+    md = _markdown(data, tables, warning, links) + [*prov_md, "", f"Configuration: `{data.config}`"]
+    finished = [r for r in data.rows if r["status"] == "ok"]
+    if plots and finished:  # rows of errors only get no plot
+        from dcmppi.bench.reports import plots as plotting
+
+        for name in plotting.report_plots(finished, data.exp, out):
+            md += ["", f"![{name}]({name})"]
+    (out / "report.md").write_text("\n".join(md) + "\n")
+    return text
+
+
+def _conflicts(conflicts: list[str]) -> str:
+    """The notice of episodes that two databases hold with different results ('' without)."""
+    if not conflicts:
+        return ""
+    shown = ", ".join(conflicts[:5])
+    more = f" and {len(conflicts) - 5} more" if len(conflicts) > 5 else ""
+    return (
+        f"**Conflicting databases**: {len(conflicts)} episodes are recorded with "
+        f"different results in two of them (the first database's row is used): {shown}{more}"
+    )
+
+
+def _terminal(data: Loaded, tables: dict, warning: str, prov_line: str) -> str:
+    """The text shown on the terminal: notices, the tables, the errors' count, provenance."""
+    n_errors = sum(r["status"] == "error" for r in data.rows)
     errors_line = (
         f"{n_errors} episodes ended in errors: their messages and tracebacks are listed in "
         "report.md (Errors)"
         if n_errors
         else ""
     )
-    text = "\n\n".join(
-        part
-        for part in (
-            warning,
-            table(rows, exp),
-            metrics,
-            scores,
-            diagnostics_table(rows, exp),
-            errors_line,
-            prov_line,
-        )
-        if part
+    parts = (
+        warning,
+        table(data.rows, data.exp),
+        tables["metrics"],
+        tables["scores"],
+        tables["diagnostics"],
+        errors_line,
+        prov_line,
     )
-    links = None
-    if gallery > 0:
-        from dcmppi.bench.runs.replay import gallery as replay_gallery
+    return "\n\n".join(part for part in parts if part)
 
-        found = replay_gallery(data.paths, out, gallery)
-        links = {
-            key: " ".join(f"[{index} {outcome}]({gif})" for index, outcome, gif in clips)
-            for key, clips in found.items()
-        }
-    ref = f"the reference row `{exp.reference}`" if exp.reference else "no reference row"
+
+def _gallery(paths: list[Path], out: Path, n: int) -> dict:
+    """GIFs of the first `n` failures of each row and one success: {key: markdown links}."""
+    from dcmppi.bench.runs.replay import gallery
+
+    found = gallery(paths, out, n)
+    return {
+        key: " ".join(f"[{index} {outcome}]({gif})" for index, outcome, gif in clips)
+        for key, clips in found.items()
+    }
+
+
+def _markdown(data: Loaded, tables: dict, warning: str, links: dict | None) -> list[str]:
+    """report.md's lines up to the provenance: title, notices, the tables and their notes."""
+    rows, exp = data.rows, data.exp
     sources = ", ".join(f"`{p}`" for p in data.paths)
-    md = [
+    several = len(data.paths) > 1
+    scores = tables["scores"]
+    return [
         f"# dcmppi report: {exp.name} ({exp.task})",
         "",
         *([exp.description, ""] if exp.description else []),
-        *(
-            [f"Merged from {len(data.paths)} databases: {sources}.", ""]
-            if len(data.paths) > 1
-            else []
-        ),
+        *([f"Merged from {len(data.paths)} databases: {sources}.", ""] if several else []),
         *([warning, ""] if warning else []),
         table(rows, exp, links),
         "",
+        _table_note(exp, links is not None),
+        "",
+        "## Navigation metrics",
+        "",
+        tables["metrics"],
+        "",
+        METRICS_NOTE,
+        "",
+        *(["## Navigation score", "", scores, "", SCORE_NOTE, ""] if scores else []),
+        "## Controller diagnostics",
+        "",
+        tables["diagnostics"],
+        "",
+        DIAGNOSTICS_NOTE,
+        "",
+        "## Time per episode (wall clock of each worker)",
+        "",
+        speed_table(rows, exp),
+        "",
+        *([*errors_section(rows), ""] if any(r["status"] == "error" for r in rows) else []),
+    ]
+
+
+def _table_note(exp: Experiment, replays: bool) -> str:
+    """The note below the main table: failure, intervals, McNemar, the paper's figures."""
+    ref = f"the reference row `{exp.reference}`" if exp.reference else "no reference row"
+    return (
         "Failure = any outcome but the goal (collision, left map, time limit). Intervals: 95 % "
         f"Wilson score. McNemar: exact two-sided test on collisions against {ref}, over the "
         "environments both rows finished; 'a vs b discordant' counts environments where only "
@@ -551,40 +626,7 @@ def write_report(db_paths, out_dir: str | Path, plots: bool = True, gallery: int
         + (
             " Replays: GIFs of the first failures of each row and one success (environment, "
             "outcome)."
-            if links is not None
+            if replays
             else ""
-        ),
-        "",
-        "## Navigation metrics",
-        "",
-        metrics,
-        "",
-        METRICS_NOTE,
-        "",
-        *(["## Navigation score", "", scores, "", SCORE_NOTE, ""] if scores else []),
-        "## Controller diagnostics",
-        "",
-        diagnostics_table(rows, exp),
-        "",
-        "ESS: effective sample size 1 / sum(w^2) of the weights that made the plan, mean over "
-        "steps. Clusters: DBSCAN clusters per step; fallback: share of steps with no cluster, "
-        "where Alg. 1 ran over all samples (clustered and dc only). Tube deviation: the 95th "
-        "percentile over an episode's steps of |real - nominal| position, mean over episodes.",
-        "",
-        "## Time per episode (wall clock of each worker)",
-        "",
-        speed_table(rows, exp),
-        "",
-        *([*errors_section(rows), ""] if n_errors else []),
-        *prov_md,
-        "",
-        f"Configuration: `{config}`",
-    ]
-    finished = [r for r in rows if r["status"] == "ok"]
-    if plots and finished:  # rows of errors only get no plot
-        from dcmppi.bench.reports import plots as plotting
-
-        for name in plotting.report_plots(finished, exp, out):
-            md += ["", f"![{name}]({name})"]
-    (out / "report.md").write_text("\n".join(md) + "\n")
-    return text
+        )
+    )

@@ -60,23 +60,49 @@ def compare(old_paths, new_paths) -> list[Comparison]:
     episode.
     """
     old, new = load(old_paths), load(new_paths)
-    if old.exp.name != new.exp.name:
+    _check_configurations(old.exp, new.exp)
+    groups = _pairs(old.rows, new.rows)
+    if not groups:
+        raise ValueError("the old and the new databases share no finished episode")
+    rows_old = {row.label: (row.controller, row.params) for row in old.exp.rows}
+    rows_new = {row.label: (row.controller, row.params) for row in new.exp.rows}
+    for label in sorted({label for _, label in groups}):
+        if rows_old.get(label) != rows_new.get(label):
+            raise ValueError(
+                f"row {label!r} ran {rows_old.get(label)} in the old databases and "
+                f"{rows_new.get(label)} in the new (controller, parameters): run both with the "
+                "same rows"
+            )
+    rows = [row.label for row in old.exp.rows]
+    order = sorted(
+        groups,
+        key=lambda k: (noise_order(k[0]), rows.index(k[1]) if k[1] in rows else len(rows), k[1]),
+    )
+    return [_comparison(noise, label, groups[noise, label]) for noise, label in order]
+
+
+def _check_configurations(old, new) -> None:
+    """Refuse two sides of different experiments or configurations (ValueError, one line)."""
+    if old.name != new.name:
         raise ValueError(
-            f"the old databases hold experiment {old.exp.name!r} and the new {new.exp.name!r}; "
+            f"the old databases hold experiment {old.name!r} and the new {new.name!r}; "
             "compare runs of one experiment"
         )
     for field in ("task", "base_seed", "env_param", "task_params", "controller_params"):
-        a, b = getattr(old.exp, field), getattr(new.exp, field)
+        a, b = getattr(old, field), getattr(new, field)
         if a != b:
             raise ValueError(
                 f"the old databases ran {field} {a!r} and the new {b!r}: the rule pairs two codes "
                 "on the same episodes; run both with the same configuration"
             )
-    rows_old = {row.label: (row.controller, row.params) for row in old.exp.rows}
-    rows_new = {row.label: (row.controller, row.params) for row in new.exp.rows}
-    done = {(r["noise"], r["label"], r["env_index"]): r for r in new.rows if r["status"] == "ok"}
-    groups: dict[tuple[str, str], list[tuple[dict, dict]]] = {}
-    for a in old.rows:
+
+
+def _pairs(old: list[dict], new: list[dict]) -> dict[tuple[str, str], list[tuple[dict, dict]]]:
+    """{(noise, label): [(old row, new row)]} of the episodes both sides finished; a pair of
+    different seeds raises ValueError."""
+    done = {(r["noise"], r["label"], r["env_index"]): r for r in new if r["status"] == "ok"}
+    groups = {}
+    for a in old:
         key = (a["noise"], a["label"], a["env_index"])
         b = done.get(key)
         if a["status"] != "ok" or b is None:
@@ -87,40 +113,24 @@ def compare(old_paths, new_paths) -> list[Comparison]:
                 f"{b['seed']} in the new; compare runs with the same base seed"
             )
         groups.setdefault(key[:2], []).append((a, b))
-    if not groups:
-        raise ValueError("the old and the new databases share no finished episode")
-    for label in sorted({label for _, label in groups}):
-        if rows_old.get(label) != rows_new.get(label):
-            raise ValueError(
-                f"row {label!r} ran {rows_old.get(label)} in the old databases and "
-                f"{rows_new.get(label)} in the new (controller, parameters): run both with the "
-                "same rows"
-            )
-    rows = [row.label for row in old.exp.rows]
-    out = []
-    order = sorted(
-        groups,
-        key=lambda k: (noise_order(k[0]), rows.index(k[1]) if k[1] in rows else len(rows), k[1]),
+    return groups
+
+
+def _comparison(noise: str, label: str, pairs: list[tuple[dict, dict]]) -> Comparison:
+    only_old = sum(bool(a["collision"]) and not b["collision"] for a, b in pairs)
+    only_new = sum(bool(b["collision"]) and not a["collision"] for a, b in pairs)
+    return Comparison(
+        noise=noise,
+        label=label,
+        pairs=len(pairs),
+        old=sum(bool(a["collision"]) for a, _ in pairs),
+        new=sum(bool(b["collision"]) for _, b in pairs),
+        only_old=only_old,
+        only_new=only_new,
+        p=mcnemar_exact(only_old, only_new),
+        old_failures=sum(bool(a["failure"]) for a, _ in pairs),
+        new_failures=sum(bool(b["failure"]) for _, b in pairs),
     )
-    for noise, label in order:
-        pairs = groups[noise, label]
-        only_old = sum(bool(a["collision"]) and not b["collision"] for a, b in pairs)
-        only_new = sum(bool(b["collision"]) and not a["collision"] for a, b in pairs)
-        out.append(
-            Comparison(
-                noise=noise,
-                label=label,
-                pairs=len(pairs),
-                old=sum(bool(a["collision"]) for a, _ in pairs),
-                new=sum(bool(b["collision"]) for _, b in pairs),
-                only_old=only_old,
-                only_new=only_new,
-                p=mcnemar_exact(only_old, only_new),
-                old_failures=sum(bool(a["failure"]) for a, _ in pairs),
-                new_failures=sum(bool(b["failure"]) for _, b in pairs),
-            )
-        )
-    return out
 
 
 def table(comparisons: list[Comparison]) -> str:

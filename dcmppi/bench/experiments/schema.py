@@ -112,6 +112,36 @@ def parse(data: dict, source: str, resolve: bool = True) -> dict:
     `Experiment`. resolve=False skips the checks that import tasks and controllers (reading a
     stored definition back)."""
     _table(source, "", data, TOP_KEYS, REQUIRED)
+    name, task, episodes, base_seed = _scalars(source, data, resolve)
+    noises = _noises(source, data.get("noises", ["none"]))
+    env_param = _env_param(source, data)
+    rows = _rows(source, data["rows"], resolve)
+    labels = [row["label"] for row in rows]
+    reference = data.get("reference")
+    if reference is not None and reference not in labels:
+        raise ExperimentError(
+            source, "reference", f"{reference!r} is no row label; labels: {', '.join(labels)}"
+        )
+    return {
+        "name": name,
+        "description": data.get("description", ""),
+        "task": task,
+        "rows": rows,
+        "noises": noises,
+        "episodes": episodes,
+        "base_seed": base_seed,
+        "env_param": env_param,
+        **{
+            key: check_params(source, key, data.get(key, {}), RESERVED[key])
+            for key in ("task_params", "controller_params")
+        },
+        "reference": reference,
+        "paper_note": data.get("paper_note", ""),
+    }
+
+
+def _scalars(source, data, resolve) -> tuple[str, str, int, int]:
+    """(name, task, episodes, base_seed), checked."""
     task = data["task"]
     name = data.get("name", "")
     if name and (not name.strip() or "/" in name or "\\" in name):
@@ -129,7 +159,12 @@ def parse(data: dict, source: str, resolve: bool = True) -> dict:
     base_seed = data.get("base_seed", 0)
     if base_seed < 0:
         raise ExperimentError(source, "base_seed", f"must be >= 0, got {base_seed}")
-    noises = tuple(data.get("noises", ["none"]))
+    return name, task, episodes, base_seed
+
+
+def _noises(source, noises: list) -> tuple[str, ...]:
+    """The noise profiles: at least one, each known, none twice."""
+    noises = tuple(noises)
     if not noises:
         raise ExperimentError(source, "noises", "empty; give at least one noise profile")
     for i, noise in enumerate(noises):
@@ -141,51 +176,37 @@ def parse(data: dict, source: str, resolve: bool = True) -> dict:
             )
     if len(set(noises)) < len(noises):
         raise ExperimentError(source, "noises", f"repeats a profile: {list(noises)}")
+    return noises
+
+
+def _env_param(source, data) -> str | None:
+    """The task parameter set to the environment index: a name no task_params entry sets."""
     env_param = data.get("env_param")
-    if env_param is not None:
-        if env_param in RESERVED["task_params"] or not env_param.isidentifier():
-            raise ExperimentError(
-                source, "env_param", f"{env_param!r}: name a task parameter (e.g. world)"
-            )
-        if env_param in data.get("task_params", {}):
-            raise ExperimentError(
-                source,
-                f"task_params.{env_param}",
-                f"set per environment (env_param = {env_param!r}); remove it",
-            )
-    if not data["rows"]:
+    if env_param is None:
+        return None
+    if env_param in RESERVED["task_params"] or not env_param.isidentifier():
+        raise ExperimentError(
+            source, "env_param", f"{env_param!r}: name a task parameter (e.g. world)"
+        )
+    if env_param in data.get("task_params", {}):
+        raise ExperimentError(
+            source,
+            f"task_params.{env_param}",
+            f"set per environment (env_param = {env_param!r}); remove it",
+        )
+    return env_param
+
+
+def _rows(source, rows: list, resolve) -> tuple[dict, ...]:
+    """The rows checked (`_row`), at least one, no label twice."""
+    if not rows:
         raise ExperimentError(source, "rows", "empty; give at least one [[rows]] table")
-    rows = tuple(_row(source, i, row, resolve) for i, row in enumerate(data["rows"]))
+    rows = tuple(_row(source, i, row, resolve) for i, row in enumerate(rows))
     labels = [row["label"] for row in rows]
     for i, label in enumerate(labels):
         if label in labels[:i]:
             raise ExperimentError(source, f"rows[{i}].label", f"{label!r} is used twice")
-    reference = data.get("reference")
-    if reference is not None and reference not in labels:
-        raise ExperimentError(
-            source, "reference", f"{reference!r} is no row label; labels: {', '.join(labels)}"
-        )
-    return {
-        "name": name,
-        "description": data.get("description", ""),
-        "task": task,
-        "rows": rows,
-        "noises": noises,
-        "episodes": episodes,
-        "base_seed": base_seed,
-        "env_param": env_param,
-        "task_params": check_params(
-            source, "task_params", data.get("task_params", {}), RESERVED["task_params"]
-        ),
-        "controller_params": check_params(
-            source,
-            "controller_params",
-            data.get("controller_params", {}),
-            RESERVED["controller_params"],
-        ),
-        "reference": reference,
-        "paper_note": data.get("paper_note", ""),
-    }
+    return rows
 
 
 def _row(source, i, data, resolve) -> dict:

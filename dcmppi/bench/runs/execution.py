@@ -360,30 +360,14 @@ def _ray(todo, workers: int, address: str | None, timeout: float | None, plugins
         raise RuntimeError(
             "the ray executor needs Ray: pip install 'dcmppi[ray]' (or use --executor local)"
         ) from e
-    from dcmppi.bench.episodes.plugins import import_roots
-
     jobs = iter(todo)
     first = next(jobs, None)
     if first is None:
         return
-    started = not ray.is_initialized()
-    if started:
-        # Ray's workers do not share this process's sys.path: hand them the directories of
-        # package.module:ClassName controllers and predictors (on a cluster, the nodes must
-        # have them too)
-        roots = import_roots(plugins)
-        paths = roots + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
-        env = {**_SINGLE_THREAD, **({"PYTHONPATH": os.pathsep.join(paths)} if roots else {})}
-        kwargs = {"address": address} if address else {"num_cpus": workers}
-        ray.init(
-            **kwargs,
-            include_dashboard=False,
-            log_to_driver=False,
-            runtime_env={"env_vars": env},
-        )
+    started = _ray_start(ray, workers, address, plugins)
     window = max(workers, int(ray.cluster_resources().get("CPU", 0))) if address else workers
     remote = ray.remote(max_retries=0, num_cpus=1)(_run_in_worker)
-    pending = {}
+    pending = {}  # ref -> (key, spec, submission time)
 
     def submit(job):
         pending[remote.remote(job[1])] = (*job, time.monotonic())
@@ -395,27 +379,7 @@ def _ray(todo, workers: int, address: str | None, timeout: float | None, plugins
             if len(pending) == window:
                 break
         while pending:
-            wait_s = None
-            if timeout is not None:
-                oldest = min(t for _, _, t in pending.values())
-                wait_s = max(0.0, oldest + timeout - time.monotonic())
-            ready, _ = ray.wait(list(pending), num_returns=1, timeout=wait_s)
-            if ready:
-                ref = ready[0]
-                key, spec, _ = pending.pop(ref)
-                try:
-                    result = ray.get(ref)
-                except ray.exceptions.WorkerCrashedError:
-                    result = {"error": "worker died (Ray WorkerCrashedError)"}
-                except ray.exceptions.RayError as e:
-                    result = {"error": f"{type(e).__name__}: {e}".splitlines()[0]}
-                    result["traceback"] = str(e)
-            else:
-                ref = min(pending, key=lambda r: pending[r][2])
-                key, spec, _ = pending.pop(ref)
-                ray.cancel(ref, force=True)
-                result = timeout_error(timeout)
-            yield key, spec, result
+            yield _ray_finished(ray, pending, timeout)
             job = next(jobs, None)
             if job is not None:
                 submit(job)
@@ -424,6 +388,50 @@ def _ray(todo, workers: int, address: str | None, timeout: float | None, plugins
             ray.cancel(ref, force=True)
         if started:
             ray.shutdown()
+
+
+def _ray_start(ray, workers: int, address: str | None, plugins) -> bool:
+    """Start Ray here (num_cpus=workers) or join the cluster at `address`, unless it runs
+    already; whether this call started it."""
+    if ray.is_initialized():
+        return False
+    # Ray's workers do not share this process's sys.path: hand them the directories of
+    # package.module:ClassName controllers and predictors (on a cluster, the nodes must
+    # have them too)
+    from dcmppi.bench.episodes.plugins import import_roots
+
+    roots = import_roots(plugins)
+    paths = roots + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+    env = {**_SINGLE_THREAD, **({"PYTHONPATH": os.pathsep.join(paths)} if roots else {})}
+    kwargs = {"address": address} if address else {"num_cpus": workers}
+    ray.init(**kwargs, include_dashboard=False, log_to_driver=False, runtime_env={"env_vars": env})
+    return True
+
+
+def _ray_finished(ray, pending: dict, timeout: float | None) -> tuple:
+    """(key, spec, result) of the next task of `pending` to finish, taken out of it; the
+    oldest one, cancelled, as a timeout error when none finishes within `timeout` of its
+    submission."""
+    wait_s = None
+    if timeout is not None:
+        oldest = min(t for _, _, t in pending.values())
+        wait_s = max(0.0, oldest + timeout - time.monotonic())
+    ready, _ = ray.wait(list(pending), num_returns=1, timeout=wait_s)
+    if not ready:
+        ref = min(pending, key=lambda r: pending[r][2])
+        key, spec, _ = pending.pop(ref)
+        ray.cancel(ref, force=True)
+        return key, spec, timeout_error(timeout)
+    ref = ready[0]
+    key, spec, _ = pending.pop(ref)
+    try:
+        result = ray.get(ref)
+    except ray.exceptions.WorkerCrashedError:
+        result = {"error": "worker died (Ray WorkerCrashedError)"}
+    except ray.exceptions.RayError as e:
+        result = {"error": f"{type(e).__name__}: {e}".splitlines()[0]}
+        result["traceback"] = str(e)
+    return key, spec, result
 
 
 def _hms(seconds: float) -> str:

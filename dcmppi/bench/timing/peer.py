@@ -230,16 +230,7 @@ def compare(ours, steps, block=1, threaded=None):
     try:
         theirs = PeerLoop(ours)
         problem, start = theirs.problem, theirs.state.copy()
-        loops = (ours, theirs) + ((threaded,) if threaded else ())
-        paths, plans = [[] for _ in loops], []
-        for block_start in range(0, steps, block):
-            for loop, path in zip(loops, paths, strict=True):
-                for i in range(block_start, min(block_start + block, steps)):
-                    loop.step()
-                    path.append(loop.state[:2])
-                    if i == 0 and loop is not threaded:
-                        plan = loop.ctrl.diagnostics.plan if loop is ours else loop.mppi.U.numpy()
-                        plans.append(np.array(plan))
+        paths, plans = _interleave(ours, theirs, threaded, steps, block)
     finally:
         torch.set_num_threads(threads)
     (mo, po), (mt, pt) = ours.summary(), theirs.summary()
@@ -248,14 +239,6 @@ def compare(ours, steps, block=1, threaded=None):
     first = plans[:, 0, 0].tolist()
     gap = float(np.hypot(*(ours.state[:2] - theirs.state[:2])))
     c = ours.ctrl
-    extra = {}
-    if threaded:
-        mp, pp = threaded.summary()
-        extra["threaded"] = {
-            "threads": threaded.ctrl.threads, "median_ms": mp, "p95_ms": pp,
-            "speedup": mo / mp, "speedup_blocks": block_ratios(ours, threaded, block),
-            "same_path": bool(np.array_equal(paths[0], paths[2])),
-        }  # fmt: skip
     return {
         "settings": {
             "controller": c.name,
@@ -285,8 +268,35 @@ def compare(ours, steps, block=1, threaded=None):
             + passing(ours.static, start, ours.goal, ours.ctrl.robot_radius, paths[:2])
             + f"; after {steps} steps they are {100 * gap:.1f} cm apart"
         ),
-        **extra,
+        **({"threaded": _threaded(ours, threaded, block, paths, mo)} if threaded else {}),
     }
+
+
+def _interleave(ours, theirs, threaded, steps, block):
+    """Step the loops (ours, theirs, threaded if given) `steps` times, in turns of `block`
+    steps each; returns (each loop's path [(2,)], the first plans of ours and theirs)."""
+    loops = (ours, theirs) + ((threaded,) if threaded else ())
+    paths, plans = [[] for _ in loops], []
+    for block_start in range(0, steps, block):
+        for loop, path in zip(loops, paths, strict=True):
+            for i in range(block_start, min(block_start + block, steps)):
+                loop.step()
+                path.append(loop.state[:2])
+                if i == 0 and loop is not threaded:
+                    plan = loop.ctrl.diagnostics.plan if loop is ours else loop.mppi.U.numpy()
+                    plans.append(np.array(plan))
+    return paths, plans
+
+
+def _threaded(ours, threaded, block, paths, ours_median) -> dict:
+    """The "threaded" entry: threads, median_ms, p95_ms, speedup (ours' median over its),
+    speedup_blocks, same_path (whether it drove the path of ours exactly)."""
+    mp, pp = threaded.summary()
+    return {
+        "threads": threaded.ctrl.threads, "median_ms": mp, "p95_ms": pp,
+        "speedup": ours_median / mp, "speedup_blocks": block_ratios(ours, threaded, block),
+        "same_path": bool(np.array_equal(paths[0], paths[2])),
+    }  # fmt: skip
 
 
 def passing(static, start, goal, robot_radius, paths):

@@ -121,3 +121,11 @@ def test_reach_refuses_pedestrians_that_react(capsys):
     assert cli.main(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "reachability needs obstacles whose paths do not depend" in err[0]
+
+
+def test_each_command_is_a_module_with_its_parser_and_handler():
+    subparsers = next(a for a in cli.build_parser()._actions if a.dest == "command").choices
+    names = [module.__name__.rsplit(".", 1)[1] for module in cli.COMMANDS]
+    assert list(subparsers) == names  # the order `dcmppi --help` lists them in
+    for name, module in zip(names, cli.COMMANDS, strict=True):
+        assert subparsers[name].get_default("func") is module.run, name

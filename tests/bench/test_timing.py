@@ -9,6 +9,7 @@ import time
 import numpy as np
 import pytest
 
+from dcmppi import cli
 from dcmppi.bench import timing
 from dcmppi.bench.results import provenance
 from dcmppi.bench.timing import cases, cores, episodes, loop, profile, scaling
@@ -418,3 +419,29 @@ def test_the_machines_gains_run_their_kernels_on_every_thread(monkeypatch):
     monkeypatch.setattr(cores, "REPEATS", 2)
     gains = cores._gain(lambda *a: calls.append(a), [(1,), (2,), (3,)])
     assert gains > 0 and sorted(calls) == [(1,)] * 5 + [(2,)] * 2 + [(3,)] * 2
+
+
+def test_timing_is_a_subcommand_of_the_one_parser(capsys):
+    subparsers = next(a for a in cli.build_parser()._actions if a.dest == "command").choices
+    options = {o for a in subparsers["timing"]._actions for o in a.option_strings}
+    assert options == {
+        "-h", "--help", "--json", "--steps", "--block", "--against", "--K", "--N", "--threads",
+        "--scaling", "--out", "--profile", "--environments", "--workers", "--fingerprint",
+    }  # fmt: skip
+    with pytest.raises(SystemExit) as exit:
+        cli.main(["timing", "--steps", "6", "--bogus"])
+    assert exit.value.code == 2
+    err = capsys.readouterr().err
+    assert err == "dcmppi timing: error: unrecognized arguments: --bogus (see --help)\n"
+
+
+@pytest.mark.slow
+def test_python_m_timing_is_dcmppi_timing():
+    run = subprocess.run(
+        [sys.executable, "-m", "dcmppi.bench.timing", "--K", "64"], capture_output=True, text=True
+    )
+    assert run.returncode == 2 and run.stdout == ""
+    assert run.stderr == (
+        "dcmppi timing: error: --K sets the size of --against's problem: add --against "
+        "pytorch_mppi (see --help)\n"
+    )

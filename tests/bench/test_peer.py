@@ -17,6 +17,9 @@ from dcmppi.control.kernels.costs import OccupancyGrid
 
 
 def test_against_without_the_packages_prints_the_install_command(monkeypatch, capsys):
+    # the command line loads the planners (scipy.stats), whose array API shim reads
+    # sys.modules["torch"] on import: loaded first, as with torch absent
+    make_controller("clustered")
     monkeypatch.setitem(sys.modules, "torch", None)  # `import torch` raises ImportError
     assert timing.main(["--against", "pytorch_mppi", "--steps", "5"]) == 2
     out = capsys.readouterr()
@@ -85,7 +88,7 @@ def test_pytorch_mppi_plans_as_ours_from_the_same_perturbations(K, N):
     ctrl.reset(seed=0)
     U0 = np.linspace(0.9, 0.0, ctrl.N)[:, None]  # (N, nu)
     ctrl.U = U0.copy()
-    eps = ctrl.sample()  # (N, nu, K)
+    eps = np.asarray(ctrl.sample())  # (N, nu, K)
     ctrl.sample = lambda: eps
     ctrl.act(START, GOAL, STATIC)
     mppi = peer.make_peer(ctrl, problem)

@@ -123,6 +123,12 @@ class Navigation(control.Task):
         """Draws this episode's world from `random` (a RandomState)."""
         raise NotImplementedError
 
+    def obstacle_motion(self):
+        """This episode's motion of the moving obstacles (physics.Physics.set_world's `motion`),
+        called after generate_world; None (this one): the physics moves them by the world's
+        behaviour."""
+        return None
+
     def next_goal(self, random, i, position):
         """Pedestrian i's next goal on reaching its goal at `position` (2,): (None, goal (2,)),
         None keeping it where it is. This one draws a uniform point of the map at least its
@@ -180,7 +186,13 @@ class Navigation(control.Task):
         velocity = robots.start_velocity(self.agent, world.start[2])
         command = self._command(self.agent.first_guess(world.start, world.goal, 1)[0])
         physics.set_world(
-            world, velocity, command, self.agent.max_speed, self.next_goal, world_random
+            world,
+            velocity,
+            command,
+            self.agent.max_speed,
+            self.next_goal,
+            world_random,
+            self.obstacle_motion(),
         )
         self._outcome = None
         self._min_clearance = physics.min_clearance

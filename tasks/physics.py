@@ -2,8 +2,9 @@
 
 `Physics` owns the MuJoCo model (models/arena.xml with one robot of models/robots/ and a fixed
 number of obstacle slots), moves the moving obstacles every physics substep (Dubins arcs,
-arcs.DubinsObstacles, for the "constant" behaviour, else `pedestrians.Pedestrians`), and
-records robot-obstacle contacts and the analytic clearance; walls are rows of static cylinders
+arcs.DubinsObstacles, for the "constant" behaviour, else `pedestrians.Pedestrians`, or a task's
+own motion such as replay.RecordedPeople), and records robot-obstacle contacts and the analytic
+clearance; walls are rows of static cylinders
 (pedestrian_worlds.wall_cylinders). The task that drives it is navigation.Navigation.
 """
 
@@ -216,7 +217,8 @@ class Physics(dm_mujoco.Physics):
         self._mocap_xy = d.mocap_pos[self._mocap, :2]
         self._mocap_quat = d.mocap_quat[self._mocap]
         self._moving = None
-        self._walking = False  # the moving obstacles are pedestrians.Pedestrians
+        self._walking = False  # the moving obstacles see the robot: Pedestrians or a motion
+        self._coming = False  # set_world's motion: rows whose obstacles come and go
         self.control_period = defaults.DT  # [s] make_environment sets the environment's
         self._moving_obs = np.zeros((num_moving, 4))
         self._solid = np.zeros((0, 3))
@@ -255,13 +257,21 @@ class Physics(dm_mujoco.Physics):
 
     # Episode set-up -------------------------------------------------------------------------
 
-    def set_world(self, world: World, velocity, command, top_speed, next_goal=None, random=None):
+    def set_world(
+        self, world: World, velocity, command, top_speed, next_goal=None, random=None, motion=None
+    ):
         """Places robot, goal and obstacles of `world`; clears the records.
 
         velocity: the robot's world-frame (vx, vy, yaw rate) at the start; command: the three
         actuator targets at the start; top_speed: the robot's fastest planar speed [m/s].
         Pedestrian worlds (behavior not "constant") also need next_goal(random, i, position)
-        and random (np.random.RandomState), see `pedestrians.Pedestrians`."""
+        and random (np.random.RandomState), see `pedestrians.Pedestrians`.
+        motion: the moving obstacles' own motion instead of the world's behaviour, or None. It
+        has advance(n, robot_xy, robot_velocity) -> complex (n, L) (as `Pedestrians`), z,
+        theta, velocity, max_speed [m/s], radius (L,) each row's disc and present (L,) bool:
+        a row that is not present holds no obstacle now (radius 0 in `moving_obstacles`, and
+        the motion parks it far away, so it touches nothing); world.moving is its state at
+        t = 0 (replay.RecordedPeople: rows that recorded people come and go by)."""
         m = self._m
         static = world.static
         solid = static[:, 2] > 0
@@ -280,16 +290,21 @@ class Physics(dm_mujoco.Physics):
         m.geom_size[goal, 0] = GOAL_TOLERANCE
 
         moving = world.moving
-        self._moving_obs[:, 3] = moving[:, 3]
-        _set_cylinders(m, self._moving_ids, moving[:, 3])
-        _set_heading_bars(m, self._heading_ids, moving[:, 3])
+        radius = moving[:, 3] if motion is None else motion.radius
+        self._moving_obs[:, 3] = radius
+        _set_cylinders(m, self._moving_ids, radius)
+        _set_heading_bars(m, self._heading_ids, radius)
         m.geom_conaffinity[self._moving_ids] = 0
         m.body_conaffinity[self._moving_bodies] = 0
         self._switch_contacts(True)
         self._near = None
-        self._walking = len(moving) > 0 and world.behavior != BEHAVIOR_CONSTANT
+        self._coming = motion is not None  # rows that obstacles come and go by
+        self._walking = self._coming or len(moving) > 0 and world.behavior != BEHAVIOR_CONSTANT
         obstacle_speed = 0.0
-        if self._walking:
+        if motion is not None:
+            self._moving = motion
+            obstacle_speed = motion.max_speed
+        elif self._walking:
             heading = np.column_stack([np.cos(moving[:, 2]), np.sin(moving[:, 2])])
             # They walk in the map and along its walls (the corridor's reach past its ends).
             corners = np.concatenate([world.map_bounds.reshape(2, 2), world.walls.reshape(-1, 2)])
@@ -369,11 +384,14 @@ class Physics(dm_mujoco.Physics):
         if self._walking:
             robot_xy = self._qpos[:2].copy()
             moving = self._moving.advance(nstep, robot_xy, self._qvel[:2].copy())
-            # one that reached its goal may reappear elsewhere: its clearance from there
-            self._moving_clearance = _clearances(
-                np.array([complex(*robot_xy)]), _NO_SOLID, self._solid_r[:0], moving[:1],
-                self._moving_obs[:, 3], self.robot_radius,
-            )[2]  # fmt: skip
+            if self._coming:  # one may appear within the step: its nearest substep counts
+                gap = np.abs(moving - complex(*robot_xy)).min(axis=0)
+                self._moving_clearance = gap - self._moving_obs[:, 3] - self.robot_radius
+            else:  # one that reached its goal may reappear elsewhere: its clearance from there
+                self._moving_clearance = _clearances(
+                    np.array([complex(*robot_xy)]), _NO_SOLID, self._solid_r[:0], moving[:1],
+                    self._moving_obs[:, 3], self.robot_radius,
+                )[2]  # fmt: skip
         elif self._moving is not None:
             moving = self._moving.advance(nstep)
         self._activate_near(nstep * self._opt.timestep)
@@ -469,9 +487,9 @@ class Physics(dm_mujoco.Physics):
 
     @property
     def obstacle_motion(self):
-        """The moving obstacles' own model (pedestrians.Pedestrians or arcs.DubinsObstacles;
-        None without any). Its `advance` moves them without the physics: where they ignore
-        the robot, stepping it alone gives the episode's future of them."""
+        """The moving obstacles' own model (pedestrians.Pedestrians, arcs.DubinsObstacles or
+        set_world's motion; None without any). Its `advance` moves them without the physics:
+        where they ignore the robot, stepping it alone gives the episode's future of them."""
         return self._moving
 
     def robot_pose(self):
@@ -489,12 +507,15 @@ class Physics(dm_mujoco.Physics):
         return self._qvel[:3].copy()
 
     def moving_obstacles(self):
-        """(L, 4) x, y, heading, radius of the moving obstacles now."""
+        """(L, 4) x, y, heading, radius of the moving obstacles now (radius 0: a row that holds
+        none now, see set_world's motion)."""
         obs = self._moving_obs.copy()
         if self._moving is not None:
             obs[:, 0] = self._moving.z.real
             obs[:, 1] = self._moving.z.imag
             obs[:, 2] = self._moving.theta
+        if self._coming:
+            obs[~self._moving.present, 3] = 0.0
         return obs
 
     def moving_velocity(self):

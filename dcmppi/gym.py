@@ -8,9 +8,10 @@
     obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
 
 Ids: dcmppi/Forest-v0, dcmppi/Crowd-v0, dcmppi/Corridor-v0, dcmppi/Square-v0,
-dcmppi/Blocked-v0, dcmppi/Crossing-v0 and dcmppi/Layout-v0 (`path=...`, `world=...`), one per
-task of `dcmppi.tasks`; every other keyword of `gymnasium.make` is a task kwarg (`agent`, its
-parameters, `noise`, `n_clusters`, `behavior`, ...).
+dcmppi/Blocked-v0, dcmppi/Crossing-v0, dcmppi/Layout-v0 (`path=...`, `world=...`) and
+dcmppi/Replay-v0 (recorded ETH/UCY crowds: `scene=...`, the files' folder as `path=...` or
+$DCMPPI_CROWDS), one per task of `dcmppi.tasks`; every other keyword of `gymnasium.make` is a
+task kwarg (`agent`, its parameters, `noise`, `n_clusters`, `behavior`, ...).
 
 - Observation: a Dict of the task's observation arrays (float64, unbounded; shapes from the
   task's observation_spec, e.g. static_obstacles (M, 3), moving_velocity (L, 2)); with
@@ -59,6 +60,7 @@ IDS = {
     "dcmppi/Blocked-v0": "blocked",
     "dcmppi/Crossing-v0": "crossing",
     "dcmppi/Layout-v0": "layout",
+    "dcmppi/Replay-v0": "replay",
 }
 TERMINAL = ("goal", "collision", "left_map")
 

@@ -9,16 +9,18 @@ others: v_max, omega_max) and `robot_radius`, the control-noise variances `Sigma
 process-noise stds `process_velocity_std` and `process_yaw_rate_std`, `time_limit` [s],
 `obstacle_measurement_std` [m] (noisy moving-obstacle positions, headings and velocities nan),
 plus its own kwargs; tasks with pedestrians (`crowd`, `corridor`, `square`) take `behavior`
-(one of pedestrians.BEHAVIORS) and `robot_visible`.
+(one of pedestrians.BEHAVIORS) and `robot_visible`; `replay` puts the robot in a recorded crowd
+(`scene`, `path` or $DCMPPI_CROWDS, `episode`, `reactive`).
 
 What lives here, the worlds as plain numpy: `world_base` (the `World` contract, the map,
 clearance, impossible worlds), `sampling` (starts, goals, discs), `worlds` (the forest and the
 crowd), `pedestrian_worlds` (the corridor, the square, walls), `arcs` (the crowd's Dubins
-motion), `pedestrians` (walkers: social force, ORCA, ...; the behaviours by name); in MuJoCo:
+motion), `pedestrians` (walkers: social force, ORCA, ...; the behaviours by name),
+`recordings` (the ETH/UCY files); in MuJoCo:
 `physics` (the plant `Physics`: obstacle slots, contacts, clearance), `navigation` (the task
 `Navigation` and `PedestrianNavigation`: physics timestep, noise profiles, termination), one
-module per task family (`forest`, `crowd`, `corridor`, `square`, `two_valley`, `layout`),
-`robots` (agent -> actuators), `barn` (BARN's score).
+module per task family (`forest`, `crowd`, `corridor`, `square`, `two_valley`, `layout`,
+`replay`, with the recorded people's motion), `robots` (agent -> actuators), `barn` (BARN's score).
 
 May import MuJoCo, dm_control, numpy, navground and, of the rest of dcmppi, only the robot
 models dcmppi.control.agents (with dcmppi.control.kernels.dynamics, their motion), the social
@@ -44,6 +46,7 @@ from .forest import Forest  # noqa: E402
 from .layout import Layout  # noqa: E402
 from .navigation import NOISE_PROFILES, Navigation, make_environment  # noqa: E402
 from .physics import Physics  # noqa: E402
+from .replay import Replay  # noqa: E402
 from .square import Square  # noqa: E402
 from .two_valley import Blocked, Crossing  # noqa: E402
 
@@ -108,6 +111,16 @@ _register(
     "One moving cylinder that meets the robot's straight path (approach_angle=pi: head-on).",
     "dynamic",
     "two_valley",
+)
+_register(
+    "replay",
+    Replay,
+    "The robot replaces one recorded person of an ETH/UCY scene among the others' recorded "
+    "tracks (scene, path or $DCMPPI_CROWDS, episode; reactive=true: ORCA, no longer a "
+    "recording).",
+    "dynamic",
+    "pedestrians",
+    "recorded",
 )
 _register(
     "layout",
@@ -196,5 +209,6 @@ __all__ = [
     "Blocked",
     "Crossing",
     "Layout",
+    "Replay",
     "make_environment",
 ]

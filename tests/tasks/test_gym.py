@@ -1,6 +1,7 @@
 """The Gymnasium adapter: registration, the environment checker, spaces, seeding, outcomes."""
 
 import json
+import os
 import pathlib
 import subprocess
 import sys
@@ -17,6 +18,10 @@ import dcmppi.gym  # noqa: E402
 from dcmppi.gym import NavigationEnv  # noqa: E402
 
 DATA = pathlib.Path(__file__).parent / "data"
+# the ETH/UCY files: $DCMPPI_CROWDS, else ../shared/crowds from the project's root
+CROWDS = pathlib.Path(
+    os.environ.get("DCMPPI_CROWDS") or pathlib.Path(__file__).parents[3] / "shared" / "crowds"
+)
 SMALL = {  # every id with small settings, and every agent somewhere
     "dcmppi/Forest-v0": {"n_clusters": 5, "agent": "holonomic"},
     "dcmppi/Crowd-v0": {"n_obstacles": 10},
@@ -25,6 +30,7 @@ SMALL = {  # every id with small settings, and every agent somewhere
     "dcmppi/Blocked-v0": {},
     "dcmppi/Crossing-v0": {"agent": "unicycle", "noise": "control"},
     "dcmppi/Layout-v0": {"path": str(DATA / "barn_worlds_0_1.csv"), "world": 0},
+    "dcmppi/Replay-v0": {"scene": "zara1", "path": str(CROWDS)},
 }
 
 
@@ -35,6 +41,8 @@ def test_importing_registers_every_task():
 
 @pytest.mark.parametrize("env_id", SMALL)
 def test_passes_the_environment_checker(env_id):
+    if env_id == "dcmppi/Replay-v0" and not (CROWDS / "crowds_zara01.txt").is_file():
+        pytest.skip(f"the ETH/UCY files are absent ({CROWDS}; set DCMPPI_CROWDS)")
     env = gymnasium.make(env_id, render_width=64, render_height=48, **SMALL[env_id])
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # any complaint of the checker fails the test ...

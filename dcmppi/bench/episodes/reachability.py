@@ -21,6 +21,9 @@ Nearly all approximations favour the robot, so the count of unavoidable environm
 bound: obstacles are checked at instants h apart (a graze between two instants is missed), a
 cell is free when any point of it is (the inflation shrinks by half the cell's diagonal), and
 the robot has no acceleration limit and no actuator lag; only its speed is within 2 %.
+In a replay (the task `replay`) the recorded people appear and leave as recorded: one who
+appears where the ideal robot could be removes those cells (the task holds such a person back
+until the robot has moved), the one approximation that does not favour the robot.
 """
 
 from __future__ import annotations
@@ -30,7 +33,7 @@ import math
 
 import numpy as np
 
-from dcmppi.bench.episodes.futures import obstacle_tracks, reset_exogenous
+from dcmppi.bench.episodes.futures import obstacle_radii, obstacle_tracks, reset_exogenous
 from dcmppi.bench.episodes.runner import EpisodeSpec, make_env
 
 STEP_CELLS = 5  # cells per control period at top speed
@@ -66,7 +69,7 @@ def reach(spec: EpisodeSpec) -> Reach:
         world.map_bounds,
         world.static[world.static[:, 2] > 0],
         obstacle_tracks(env, steps),
-        world.moving[:, 3],
+        obstacle_radii(env),
         task.robot_radius,
         task.agent.max_speed,
         dt,
@@ -93,7 +96,10 @@ def propagate(start, goal, tolerance, bounds, static, tracks, radii, radius, v_m
     for step, centres in enumerate(tracks, start=1):
         R = _dilate(R, STEP_REACH) & free_static
         for (x, y), r in zip(centres, radii, strict=True):
-            R &= _outside(X, Y, x, y, r + radius - slack)
+            d = r + radius - slack
+            e = abs(d)  # a disc this far beyond the cells' box leaves every cell free
+            if xmin - e < x < xmax + e and ymin - e < y < ymax + e:
+                R &= _outside(X, Y, x, y, d)
         if not R.any():
             return Reach(False, True, step * dt, float("inf"))
         if (to_goal[R] <= tolerance).any():

@@ -200,22 +200,56 @@ class TrueFutures:
     (prediction="given"): where they ignore the robot, one run of their own model from the
     episode's start (dcmppi.bench.episodes.futures.obstacle_tracks) is their future at every step.
 
-    `at(step)`: (L, 1, N + 1, 2) their centres after step, step + 1, ..., step + N control
-    steps (one future each).
+    `at(step, robot_xy)`: (L, 1, N + 1, 2) their centres after step, step + 1, ..., step + N
+    control steps (one future each). A replay's recorded people come and go: where one is
+    absent its future stands AWAY beyond the reach of any rollout from the robot at robot_xy
+    (2,), not where the physics parks it (a point that far would spread the planner's track
+    cells over a kilometre). `visible(step, moving)`: the observation's moving obstacles
+    (L, 4) with the rows of those that appear within the horizon (absent now: radius 0) given
+    their radius, so that the controller keeps their futures (it drops radius-0 rows as
+    padding).
     """
 
+    AWAY = 5.0  # [m] beyond a rollout's reach and collision distance (obstacle margins too)
+
     def __init__(self, spec: EpisodeSpec, N: int):
-        from dcmppi.bench.episodes.futures import obstacle_tracks, reset_exogenous
+        from dcmppi.bench.episodes.futures import (
+            obstacle_presence,
+            obstacle_radii,
+            obstacle_tracks,
+            reset_exogenous,
+        )
 
         env = make_env(spec)
         world = reset_exogenous(env, spec.task, "prediction 'given' (the true futures)")
         steps = int(np.ceil(env.task.time_limit / env.control_timestep())) + N
-        tracks = [world.moving[:, :2], *obstacle_tracks(env, steps)]  # (steps + 1) x (L, 2)
+        tracks, present = [world.moving[:, :2]], [world.moving[:, 3] > 0]
+        for centres in obstacle_tracks(env, steps):  # (steps + 1) x (L, 2)
+            tracks.append(centres)
+            present.append(obstacle_presence(env))
         self.tracks = np.stack(tracks, axis=1)[:, None]  # (L, 1, steps + 1, 2)
+        self.present = np.stack(present, axis=1)  # (L, steps + 1)
+        self.radius = obstacle_radii(env)
         self.N = N
+        reach = env.task.agent.max_speed * N * env.control_timestep() + env.task.robot_radius
+        self.away = reach + float(self.radius.max(initial=0.0)) + self.AWAY
 
-    def at(self, step: int) -> np.ndarray:
-        return self.tracks[:, :, step : step + self.N + 1]
+    def at(self, step: int, robot_xy) -> np.ndarray:
+        futures = self.tracks[:, :, step : step + self.N + 1]
+        absent = ~self.present[:, step : step + self.N + 1]
+        if not absent.any():
+            return futures
+        futures = futures.copy()
+        futures[:, 0][absent] = np.asarray(robot_xy, dtype=float)[:2] + [self.away, 0.0]
+        return futures
+
+    def visible(self, step: int, moving: np.ndarray) -> np.ndarray:
+        coming = self.present[:, step : step + self.N + 1].any(axis=1) & (moving[:, 3] == 0)
+        if not coming.any():
+            return moving
+        moving = moving.copy()
+        moving[coming, 3] = self.radius[coming]
+        return moving
 
 
 def _wants_futures(controller) -> bool:
@@ -261,7 +295,12 @@ class Episode:
         observation = self.time_step.observation
         if self.true_futures is None:
             return observation
-        return {**observation, "moving_futures": self.true_futures.at(len(self.poses) - 1)}
+        step, futures = len(self.poses) - 1, self.true_futures
+        return {
+            **observation,
+            "moving_obstacles": futures.visible(step, observation["moving_obstacles"]),
+            "moving_futures": futures.at(step, observation["robot_pose"]),
+        }
 
     def step(self) -> None:
         """One control step: the controller acts on the observation, the task steps."""
@@ -316,6 +355,26 @@ class Episode:
             "wall_s": time.perf_counter() - self.start,
             "final_pose": [float(v) for v in self.poses[-1]],
             "trace": encode_trace(self.poses),
+            **self._human(path),
+        }
+
+    def _human(self, path) -> dict:
+        """Where the robot replaces a recorded person (the task `replay`, its `human`): scene
+        (the recording), person (their id), human_time [s] and human_path_length [m] (their
+        time to the goal region and path to it), frame_path_length [m] (the robot's path
+        sampled alike, at the recording's frame period); else nothing."""
+        human = getattr(self.env.task, "human", None)
+        if human is None:
+            return {}
+        from dcmppi.tasks.replay import sampled_path_length
+
+        times = np.arange(len(path)) * self.env.control_timestep()
+        return {
+            "scene": human.recording,
+            "person": human.id,
+            "human_time": human.time_to_goal,
+            "human_path_length": human.path_length,
+            "frame_path_length": sampled_path_length(times, path, human.period),
         }
 
 
@@ -345,7 +404,8 @@ def run_episode(
       clusters_mean, fallback_share, tube_deviation_p95 [m] (None where the controller records
       none; see `Diagnosis`), wall_s, final_pose ([x, y, yaw] when it ended), trace (bytes: the
       robot's pose at every control instant, see `encode_trace`; `dcmppi.bench.runs.replay` compares
-      it).
+      it); where the robot replaces a recorded person (the task `replay`) also scene, person,
+      human_time, human_path_length and frame_path_length (see `Episode._human`).
     """
     episode = Episode(spec)
     if on_step is not None:

@@ -69,3 +69,14 @@ def test_the_build_and_the_linter_are_pinned_as_ci_needs():
         re.fullmatch(r"ruff==[\d.]+", r)
         for r in PYPROJECT["project"]["optional-dependencies"]["dev"]
     )
+
+
+def test_every_package_folder_is_installed():
+    """A wheel ships only the packages pyproject lists: each folder of dcmppi/ with an
+    __init__.py must be among them."""
+    packages = set(PYPROJECT["tool"]["setuptools"]["packages"])
+    found = {
+        ".".join(init.parent.relative_to(ROOT).parts)
+        for init in (ROOT / "dcmppi").rglob("__init__.py")
+    }
+    assert found - packages == set(), f"add to [tool.setuptools] packages: {found - packages}"

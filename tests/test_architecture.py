@@ -65,6 +65,8 @@ MAY_IMPORT = {
         "dcmppi.render",
         "dcmppi.tasks",
     ),
+    # forecasts of recorded crowds: the predictors against the recordings, no episodes
+    "dcmppi.bench.forecasts": ("dcmppi.control", "dcmppi.tasks"),
     "dcmppi.bench.reports": (
         "dcmppi.bench.episodes",
         "dcmppi.bench.experiments",

@@ -104,9 +104,22 @@ def scene_files(scene, folder=None) -> tuple:
     )
 
 
-@functools.lru_cache(maxsize=16)
 def load_scene(files) -> Scene:
-    """The Scene of the files (paths, a tuple) and its episodes; a ValueError where it has none."""
+    """The Scene of the files (paths) and its episodes, one object while the files stay the same;
+    a ValueError where it has none."""
+    stamps = []
+    for f in files:
+        try:
+            stat = os.stat(f)
+            stamps.append((stat.st_mtime_ns, stat.st_size))
+        except OSError:
+            stamps.append(None)  # recordings.load says why
+    return _load_scene(tuple(map(str, files)), tuple(stamps))
+
+
+@functools.lru_cache(maxsize=16)
+def _load_scene(files, stamps) -> Scene:
+    """load_scene of files whose modification times and sizes are `stamps`."""
     recs = tuple(recordings.load(f) for f in files)
     name = "+".join(r.name for r in recs)
     found = [(r, i) for r, rec in enumerate(recs) for i in candidates(rec)]

@@ -1,11 +1,12 @@
 """`replay`: the robot replaces one recorded person of an ETH/UCY crowd (DistNav's episodes).
 
-Episodes, as DistNav ("Move Beyond Trajectories", RSS 2021) and SocNavBench build them: the robot
-starts where a recorded person first appears, heading along their first displacement, and its
-goal is where they were last seen; everyone else walks their recorded track, blind to the
-robot (`RecordedPeople`). A scene's episodes are its people who walk at least MIN_PATH (summed
-over their annotated frames) and come within MEET_DISTANCE of another person (centre to centre,
-at an annotated frame), in an order fixed by EPISODE_SEED and the recordings' names.
+Episodes as DistNav ("Move Beyond Trajectories", RSS 2021) builds them: the robot starts where
+a recorded person first appears, heading along their first displacement, and its goal is where
+they were last seen; everyone else walks their recorded track, blind to the robot, as
+SocNavBench replays them (`RecordedPeople`). A scene's episodes are its people who walk at
+least MIN_PATH (summed over their annotated frames) and come within MEET_DISTANCE of another
+person (centre to centre, at an annotated frame), in an order fixed by EPISODE_SEED and the
+recordings' names.
 
 Discs: every person and the robot are discs of PEDESTRIAN_RADIUS, so that a contact is DistNav's
 collision, centres closer than 0.21 m. `self_collisions` checks that distance: replayed along
@@ -16,7 +17,8 @@ through each other), where CrowdNav's 0.3 m discs (0.6 m) give 26-88 % (companio
 
 Time limit: TIME_FACTOR x the replaced person's own time (first to last annotation). Top speed:
 a holonomic or unicycle robot gets v_max = max(its default, SPEED_MARGIN x the person's top
-speed between annotated frames) unless given; with no `episode` the fastest of the scene's.
+speed between annotated frames) unless given; with no `episode` the fastest of those the task
+may replace.
 The replaced person's own track is the human reference (`Human`): their time to the goal region
 and their path to it, sampled at the recording's frame period as `sampled_path_length` samples
 the robot's (a path sampled every 0.1 s is longer than the same path every 0.4 s, from jitter).
@@ -168,11 +170,12 @@ def start_pose(track) -> np.ndarray:
     return np.array([*track.xy[0], math.atan2(d[1], d[0])])
 
 
-def window(recording, person, duration) -> tuple:
+def window(recording, person, duration, gap=defaults.DT) -> tuple:
     """The others of an episode that replaces track `person` for `duration` [s]: their track
     indices (P,) (those annotated in the window, by first appearance), each one's row (P,)
-    and the number of rows L, the most present at once (a row is reused once its person has
-    left, a frame period or more before the next one appears)."""
+    and the number of rows L. A row is reused once its person left more than `gap` before the
+    next one appears, so that it is padding at one control instant at least between two people
+    (with the data's frames, L is the most people present at once)."""
     start = np.array([t.times[0] for t in recording.tracks])
     end = np.array([t.times[-1] for t in recording.tracks])
     t0 = start[person]
@@ -180,7 +183,7 @@ def window(recording, person, duration) -> tuple:
     others = others[others != person]
     free, rows = [], np.empty(len(others), dtype=int)  # free: end of each row's last person
     for k, j in enumerate(others):
-        open_rows = [r for r, until in enumerate(free) if until < start[j]]
+        open_rows = [r for r, until in enumerate(free) if until + gap < start[j]]
         row = open_rows[0] if open_rows else len(free)
         if row == len(free):
             free.append(0.0)
@@ -258,7 +261,7 @@ class RecordedPeople:
     Attributes: z (L,) complex centres, theta (L,) headings (of the velocity; kept when
     standing), velocity (L, 2) (the track's segment now; reactive: held over the last control
     step), present (L,) bool, ids (L,) the person in each row (-1: none), radius (L,) every
-    row's disc, max_speed [m/s] the fastest any of them moves.
+    row's disc, max_speed [m/s] a bound on their speeds.
     """
 
     def __init__(self, tracks, rows, L, t0, radius, robot_radius, robot_xy, h, reactive=False):
@@ -366,7 +369,7 @@ class RecordedPeople:
             track = self._tracks[j]
             aim = _interp([min(t[-1], self._last[j])], track.times, track.xy)[0]
             cap = pedestrians.MAX_SPEED_FACTOR * max(self._top[j], 0.1)
-            behavior = self._orca.get(j) or self._behavior(j, cap)
+            behavior = self._orca[j] if j in self._orca else self._behavior(j, cap)
             target = (aim - pos[k]) / dt
             speed = math.hypot(*target)
             target = target * min(1.0, cap / speed) if speed > 0 else target

@@ -12,8 +12,8 @@ Discs: every person and the robot are discs of PEDESTRIAN_RADIUS, so that a cont
 collision, centres closer than 0.21 m. `self_collisions` checks that distance: replayed along
 their own tracks under this rule, the replaced people "collide" in 0-2 % of the episodes of
 eth, hotel, zara1 and zara2 and 8.5 % of univ's (students001's annotation has people cross
-through each other), where CrowdNav's 0.3 m discs (0.6 m) give 26-88 % (companions walk
-0.4-0.5 m apart) and SocNavBench's 0.2 m people and 0.24 m robot (0.44 m) 7-60 %.
+through each other), where CrowdNav's 0.3 m discs (0.6 m) give 24-87 % (companions walk
+0.4-0.5 m apart) and SocNavBench's 0.2 m people and 0.24 m robot (0.44 m) 6-59 %.
 
 Time limit: TIME_FACTOR x the replaced person's own time (first to last annotation). Top speed:
 a holonomic or unicycle robot gets v_max = max(its default, SPEED_MARGIN x the person's top

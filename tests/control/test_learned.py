@@ -116,6 +116,26 @@ def test_the_predictor_tracks_resamples_and_extends_the_futures(tmp_path):
     )
 
 
+def test_at_the_recordings_period_the_predictor_forecasts_as_the_model(tmp_path):
+    """Fed one frame a step, a fast walker (1.2 m a frame) keeps its track: the futures are the
+    model's forecast of its whole observed track."""
+    path = model_file(tmp_path)
+    shared = {**SHARED, "N": 12, "dt": PERIOD, "P": 5}
+    p = make_predictor("learned", model=str(path), **shared)
+    walk = arc([0.0, 0.0], 1.0, 3.0, 0.3)
+    other = arc([3.0, 3.0], -2.0, 1.0, 0.0)  # a neighbour, met from the fourth frame
+    for i in range(8):
+        rows = [walk[i], other[i]] if i >= 3 else [walk[i]]
+        moving = np.column_stack([rows, np.zeros(len(rows)), np.full(len(rows), 0.3)])
+        prediction = p.predict(np.r_[walk[i], 0.0], moving, None, np.random.default_rng(0))
+    np.testing.assert_array_equal(prediction.futures[0, :, 0], np.broadcast_to(walk[7], (5, 2)))
+    others, velocity = learned.neighbours_now(
+        [np.where(np.arange(8)[:, None] >= 3, other[:8], np.nan)[None]]
+    )
+    expected = learned.load(path).forecast(walk[None, :8], others, velocity, 5)
+    np.testing.assert_allclose(prediction.futures[0, :, 1:], expected[0], atol=1e-9)
+
+
 def test_a_new_track_is_extended_back_at_its_observed_velocity(tmp_path):
     model = model_file(tmp_path, turn=(0.0,), still=0.2)
     p = make_predictor("learned", model=str(model), **SHARED)

@@ -22,13 +22,13 @@ as held-out data supports.
 The predictor `learned` (parameter `model`: the path of a file that `Model.save` wrote) keeps
 each pedestrian's positions over the last (obs - 1) x period seconds, one per step, and matches
 the pedestrians of a step to those of the previous one by the assignment of least total distance
-from where they were heading (scipy's linear_sum_assignment; a jump over GATE metres starts a new
-track), so their number and order may change. A track shorter than the model's observation is
-extended backwards at its observed velocity (the `velocity` input; else the track's mean
-velocity; else standing). The model's positions at its period are resampled to the planner's
-steps t_i = i dt by linear interpolation in time (the present position at t = 0); beyond
-pred x period each future goes on at the velocity of its last predicted frame. The predicted
-people are blind to the robot: the training crowds had none.
+from where they were heading (scipy's linear_sum_assignment; a jump over GATE + GATE_SPEED dt
+starts a new track), so their number and order may change. A track shorter than the model's
+observation is extended backwards at its observed velocity (the `velocity` input; else the
+track's mean velocity; else standing). The model's positions at its period are resampled to the
+planner's steps t_i = i dt by linear interpolation in time (the present position at t = 0);
+beyond pred x period each future goes on at the velocity of its last predicted frame. The
+predicted people are blind to the robot: the training crowds had none.
 """
 
 import functools
@@ -48,7 +48,9 @@ SOCIAL_WEIGHT = 0.3  # weight of their relative position and velocity [1/m]
 FAR = 6.0  # [m] ahead: where a missing neighbour is placed
 FIT_K = 20  # retrieved futures per window when fitting the shrink
 FOLDS = 5  # held-out folds of the shrink when the windows come from one recording
-GATE = 1.0  # [m]: a pedestrian further than this from every track starts a new one
+# a pedestrian further than GATE + GATE_SPEED dt from where every track was heading starts a new
+# track (a track seen once is taken as standing: its first step may be a fast walker's)
+GATE, GATE_SPEED = 1.0, 3.0  # [m], [m/s]
 
 
 class Model:
@@ -339,7 +341,7 @@ class Learned(Given):
             ahead[age < 1] = old[age < 1, 0]
             gap = np.hypot(*(xy[:, None] - ahead[None]).transpose(2, 0, 1))  # (L, L_old)
             rows, cols = linear_sum_assignment(gap)
-            keep = gap[rows, cols] <= GATE
+            keep = gap[rows, cols] <= GATE + GATE_SPEED * self.dt
             rows, cols = rows[keep], cols[keep]
             history[rows, 1:] = old[cols, :-1]
             self.age[rows] = np.minimum(age[cols] + 1, self.span)

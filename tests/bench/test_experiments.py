@@ -16,7 +16,7 @@ MINIMAL = 'task = "blocked"\nepisodes = 2\n[[rows]]\ncontroller = "mppi"\n'
 def test_shipped_experiments_hold_the_papers_setup():
     assert experiment_names() == [
         "barn", "corridor", "corridor-mismatch", "corridor-visible", "crowd-sf", "dynamic",
-        "dynamic-dubins", "dynamic-ekf", "square-orca", "static",
+        "dynamic-dubins", "dynamic-ekf", "eth-ucy", "square-orca", "static",
     ]  # fmt: skip
     static = load_experiment("static")
     assert (static.task, static.episodes, static.base_seed) == ("forest", 1000, 2024)

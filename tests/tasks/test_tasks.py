@@ -93,6 +93,7 @@ def test_registry_lists_every_task_with_a_description():
         "blocked",
         "crossing",
         "layout",
+        "replay",
     }
     assert all(isinstance(d, str) and d for d in tasks.TASKS.values())
 

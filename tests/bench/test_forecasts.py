@@ -102,6 +102,9 @@ def test_the_project_predictors_forecast_through_their_interface(tmp_path):
         assert samples.shape == (3, 20, 12, 2)
         np.testing.assert_allclose(point, samples.mean(axis=1))
         assert metrics.displacement(samples, truth, point)["ade"].max() < bound, name
+        if name == "learned":  # tracked by position, as the model sees the annotated tracks
+            tracks = forecasters.learned_tracks(model)(sub)
+            np.testing.assert_allclose(samples, tracks[0], atol=1e-12)
 
 
 def test_the_population_gaussian_of_straight_walkers():

@@ -56,9 +56,8 @@ def add_parser(subparsers):
         "--predictors",
         default=",".join(evaluation.ROWS),
         help="comma-separated rows: cv (one sample), cv-noise (25 deg heading noise), "
-        "cv-sampled (the cv predictor) or any registered predictor (default: "
-        + ",".join(evaluation.ROWS)
-        + ")",
+        "cv-sampled (the cv predictor), learned-tracks (the learned model on the annotated "
+        "tracks) or any registered predictor (default: " + ",".join(evaluation.ROWS) + ")",
     )
     e.add_argument(
         "--scenes", default=",".join(recordings.SCENES), help="comma-separated test scenes"

@@ -24,7 +24,8 @@ BASELINES = {"cv": forecasters.constant_velocity, "cv-noise": forecasters.headin
 # rows that are the project's predictors under another name: `cv` is the field's one-sample
 # baseline, so the `cv` predictor (Gaussian velocity errors) is the row cv-sampled
 ALIASES = {"cv-sampled": "cv"}
-ROWS = ("cv", "cv-noise", "cv-sampled", "prior", "ekf", "social", "learned")
+ROWS = ("cv", "cv-noise", "cv-sampled", "prior", "ekf", "social", "learned-tracks", "learned")
+LEARNED = ("learned", "learned-tracks")  # the rows of a learned model
 COLUMNS = ("ade", "fde", "min_ade", "min_fde", "nll", "coverage")
 # Five-scene averages from the papers (../shared/crowds/README.md): most likely, best of 20
 PUBLISHED = {
@@ -41,7 +42,8 @@ def evaluate(
 ) -> dict:
     """Forecast every window of each test scene with each predictor (module docstring).
 
-    predictors: row names: "cv", "cv-noise", "cv-sampled", or a registered predictor's name
+    predictors: row names: "cv", "cv-noise", "cv-sampled", "learned-tracks" (the learned model
+      on the annotated tracks, forecasters.learned_tracks), or a registered predictor's name
       ("prior", "ekf", "social", "learned", ...), run through its Predictor interface.
     models: {scene: path} of the learned models; a scene without one gets a model trained here
       on its training files with `seed` (a temporary file).
@@ -53,7 +55,7 @@ def evaluate(
     for scene in scenes:
         recordings.train_files(scene)  # an unknown scene: one ValueError
     for name in predictors:
-        if name not in BASELINES:
+        if name not in BASELINES and name != "learned-tracks":
             predictor_class(ALIASES.get(name, name))  # an unknown name: one ValueError
     rows = {name: {} for name in predictors}
     counts, used = {}, {}
@@ -69,7 +71,7 @@ def evaluate(
             )
             counts[scene] = len(test)
             model = None
-            if "learned" in predictors:
+            if set(LEARNED) & set(predictors):
                 model = (models or {}).get(scene)
                 used[scene] = _provenance(model or _train(train, seed, scratch, scene), model)
                 model = model or used[scene].pop("trained")
@@ -102,6 +104,8 @@ def forecaster(name, train, model=None):
     windows (the population Gaussian); model: the learned model's path."""
     if name in BASELINES:
         return BASELINES[name]
+    if name == "learned-tracks":
+        return forecasters.learned_tracks(model)
     params = {"model": str(model)} if ALIASES.get(name, name) == "learned" else {}
     return forecasters.PredictorForecaster(
         ALIASES.get(name, name), PERIOD, PRED, forecasters.obstacle_model(train), **params
@@ -158,24 +162,24 @@ def table(result) -> str:
         f"scene out, {result['protocol']['samples']} samples; windows: "
         + ", ".join(f"{s} {n}" for s, n in result["windows"].items()),
         "",
-        f"{'average':<12} {'ADE':>6} {'FDE':>6} {'minADE':>7} {'minFDE':>7} {'NLL':>6} "
+        f"{'average':<15} {'ADE':>6} {'FDE':>6} {'minADE':>7} {'minFDE':>7} {'NLL':>6} "
         f"{'cov90':>6}",
     ]
     for name, row in result["rows"].items():
         a = row["average"]
         lines.append(
-            f"{name:<12} {a['ade']:6.2f} {a['fde']:6.2f} {a['min_ade']:7.2f} {a['min_fde']:7.2f} "
+            f"{name:<15} {a['ade']:6.2f} {a['fde']:6.2f} {a['min_ade']:7.2f} {a['min_fde']:7.2f} "
             f"{a['nll']:6.2f} {a['coverage']:6.2f}"
         )
     lines += ["", "per scene: minADE/minFDE (best of 20), ADE/FDE (most likely), NLL, cov90"]
-    lines.append(f"{'':<12} " + " ".join(f"{s:>24}" for s in scenes))
+    lines.append(f"{'':<15} " + " ".join(f"{s:>24}" for s in scenes))
     for name, row in result["rows"].items():
         cells = [
             f"{row[s]['min_ade']:.2f}/{row[s]['min_fde']:.2f} {row[s]['ade']:.2f}/"
             f"{row[s]['fde']:.2f} {row[s]['nll']:5.2f} {row[s]['coverage']:.2f}"
             for s in scenes
         ]
-        lines.append(f"{name:<12} " + " ".join(f"{c:>24}" for c in cells))
+        lines.append(f"{name:<15} " + " ".join(f"{c:>24}" for c in cells))
     lines += ["", "published five-scene averages (ADE/FDE most likely; minADE/minFDE best of 20)"]
     for source, figures in result["published"].items():
         text = ", ".join(f"{k} {v:.2f}" for k, v in figures.items())

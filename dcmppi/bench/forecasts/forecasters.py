@@ -7,7 +7,7 @@ point forecast (M, pred, 2) of each window's future, one recording frame apart.
 
 import numpy as np
 
-from dcmppi.control.predictors import make_predictor
+from dcmppi.control.predictors import learned, make_predictor
 from dcmppi.control.predictors.learned import rotate
 
 HEADING_STD = np.deg2rad(25.0)  # Schöller et al. 2020: the heading noise of "cv-noise"
@@ -38,6 +38,20 @@ def heading_noise(windows, rng) -> tuple:
     steps = np.arange(1, pred + 1)[:, None]
     samples = windows.observed[:, None, None, -1] + v[:, :, None] * steps
     return samples, constant_velocity(windows)[1]
+
+
+def learned_tracks(model):
+    """The learned model of file `model` on each window's annotated track and neighbours (the
+    people's ids known, as the papers' models see them); the point forecast is the samples'
+    mean. The predictor `learned` instead tracks the people by position, step by step."""
+    trained = learned.load(model)
+
+    def forecast(windows, rng=None):
+        others, velocity = learned.neighbours_now(windows.neighbours)
+        samples = trained.forecast(windows.observed, others, velocity, SAMPLES)
+        return samples, samples.mean(axis=1)
+
+    return forecast
 
 
 class PredictorForecaster:

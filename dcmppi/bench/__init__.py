@@ -15,6 +15,7 @@
     runs/            many episodes into a database (processes or Ray), replay, the gallery
     reports/         tables, CSV, plots, `dcmppi outcomes`
     timing/          `dcmppi timing`: speed, profiles, fingerprints, the pytorch_mppi peer
+    forecasts/       predictors' forecasts of recorded people (`dcmppi predictor eval`)
     api              `run` and `load`: the benchmark from Python
 
 May import dcmppi.control, dcmppi.tasks and dcmppi.render. Nothing in dcmppi.control,

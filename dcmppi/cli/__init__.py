@@ -1,5 +1,5 @@
 """The `dcmppi` command line: tasks, controllers, run, compare, figure, bench, report, replay,
-outcomes, reach, timing.
+outcomes, reach, predictor, timing.
 
 One module per command, each with `add_parser(subparsers, names)` (the command's options;
 `names`: what --help lists, `common.choices()`) and `run(args)` (the command; returns the exit
@@ -24,6 +24,7 @@ from dcmppi.cli import (
     controllers,
     figure,
     outcomes,
+    predictor,
     reach,
     replay,
     report,
@@ -44,6 +45,7 @@ COMMANDS = (
     replay,
     outcomes,
     reach,
+    predictor,
     timing,
 )
 

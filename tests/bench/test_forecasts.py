@@ -10,8 +10,10 @@ import numpy as np
 import pytest
 from scipy.stats import gaussian_kde
 
-from dcmppi.bench.forecasts import command, evaluate, forecasters, metrics, table
+from dcmppi.bench.forecasts import evaluate, forecasters, metrics, table
 from dcmppi.bench.forecasts.evaluation import COLUMNS
+from dcmppi.cli import common
+from dcmppi.cli import predictor as command
 from dcmppi.control.predictors import learned
 from dcmppi.tasks import recordings
 
@@ -145,7 +147,7 @@ def test_evaluate_trains_leave_one_scene_out_models_and_scores_every_row():
 
 def parse(argv):
     parser = argparse.ArgumentParser(prog="dcmppi")
-    command.add_parser(parser.add_subparsers(dest="command", required=True))
+    command.add_parser(parser.add_subparsers(dest="command", required=True), common.choices())
     return parser.parse_args(argv)
 
 

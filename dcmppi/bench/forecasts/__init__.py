@@ -5,7 +5,6 @@
     forecasters.py   constant velocity, with heading noise, and any registered predictor
                      through its Predictor interface
     evaluation.py    leave one scene out, every window: `evaluate` and its `table`
-    command.py       `dcmppi predictor train` and `dcmppi predictor eval`
 
 May import dcmppi.control (the predictors, the learned model) and dcmppi.tasks (the recordings).
 """

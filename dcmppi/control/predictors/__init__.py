@@ -10,14 +10,17 @@ parameters (`own_params`) alongside the planner's. Built in:
 - "cv": P constant-velocity futures from the observed velocities (parameter cv_std);
 - "social": P social-force futures of the pedestrians, pushed by each other and the robot's plan
   (parameter cv_std);
-- "given": the caller's own futures (act's moving_futures), e.g. a forecaster's or the truth.
+- "given": the caller's own futures (act's moving_futures), e.g. a forecaster's or the truth;
+- "learned": P recorded continuations of the most similar recorded situations, from a model
+  that `dcmppi predictor train` fits to recorded crowds (parameter model: its file).
 A new predictor is a `Predictor` subclass registered by name (README, "Your own predictor").
 
-May import numpy, numba, dcmppi.control's kernels (dynamics, normal, social), validation and
-registry; never a planner, MuJoCo or the tasks (a predictor sees observations, not the world).
+May import numpy, numba, scipy (the learned model), dcmppi.control's kernels (dynamics, normal,
+social), validation and registry; never a planner, MuJoCo or the tasks (a predictor sees
+observations, not the world).
 """
 
-from dcmppi.control.predictors import cv, ekf, frozen, given, prior, social  # noqa: F401  (registers the built-in predictors)
+from dcmppi.control.predictors import cv, ekf, frozen, given, learned, prior, social  # noqa: F401  (registers the built-in predictors)
 from dcmppi.control.predictors.base import (
     Prediction,
     Predictor,

@@ -1,23 +1,22 @@
 """`dcmppi predictor train` (a learned predictor's model from recordings) and `dcmppi predictor
-eval` (the standard ETH/UCY protocol): `add_parser(subparsers)` adds the command, `run(args)`
-runs it."""
+eval` (the standard ETH/UCY forecast protocol)."""
 
 import json
 
 from dcmppi.bench.forecasts import evaluation
+from dcmppi.cli.common import command
 from dcmppi.control.predictors import learned
 from dcmppi.tasks import recordings
 
 
-def add_parser(subparsers):
-    """Adds `predictor` with its subcommands `train` and `eval` to an argparse subparsers."""
-    p = subparsers.add_parser(
+def add_parser(subparsers, names: dict) -> None:
+    p = command(
+        subparsers,
         "predictor",
-        help="train the learned predictor on recorded crowds; evaluate forecasts on ETH/UCY",
-        description="train the learned predictor on recorded crowds; evaluate forecasts on "
-        "ETH/UCY (observe 8 frames, predict 12, leave one scene out)",
+        "train the learned predictor on recorded crowds; evaluate forecasts on ETH/UCY "
+        "(observe 8 frames, predict 12, leave one scene out)",
+        run,
     )
-    p.set_defaults(func=run)
     sub = p.add_subparsers(dest="action", required=True)
     folder = (
         f"folder of the ETH/UCY files (default: ${recordings.CROWDS_ENV}); "
@@ -73,7 +72,6 @@ def add_parser(subparsers):
     e.add_argument("--limit", type=int, help="at most this many windows per scene")
     e.add_argument("--folder", help=folder)
     e.add_argument("--json", action="store_true", help="print one JSON object")
-    return p
 
 
 def run(args) -> int:

@@ -23,6 +23,11 @@ def add_parser(subparsers, names: dict) -> None:
         "not needed for --data paths"
     )
 
+    _train_parser(sub, folder)
+    _eval_parser(sub, folder)
+
+
+def _train_parser(sub, folder: str) -> None:
     t = sub.add_parser("train", help="train a learned model; print its sha256")
     data = t.add_mutually_exclusive_group(required=True)
     data.add_argument(
@@ -50,6 +55,8 @@ def add_parser(subparsers, names: dict) -> None:
     t.add_argument("--max-windows", type=int, help="train on this many windows, drawn by --seed")
     t.add_argument("--folder", help=folder)
 
+
+def _eval_parser(sub, folder: str) -> None:
     e = sub.add_parser("eval", help="ADE/FDE, KDE NLL and coverage on the five ETH/UCY scenes")
     e.add_argument(
         "--predictors",

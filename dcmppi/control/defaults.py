@@ -32,3 +32,24 @@ P = 25  # sampled futures per moving obstacle (paper)
 def omega_max(v: float = V, r_min: float = R_MIN) -> float:
     """Turn-rate bound v / R_min [rad/s]."""
     return v / r_min
+
+
+# Presets: named sets of the options above that a controller takes with `preset=` (explicit
+# parameters win). "paper": the paper's algorithms, every default above (the default preset).
+# "smooth": plans a robot can follow (docs/design.md, Smoothness): the temperature chosen each
+# step, a cost on control changes, a Savitzky-Golay filter of the plan and, for the clustered
+# planners, candidates that average samples and a choice of cluster with hysteresis.
+# change_cost_per_variance: the change cost's weight of each control is this / Sigma (a change
+# of one sampling std costs this many cost units).
+PRESETS = {
+    "paper": {},
+    "smooth": {
+        "lambda_": "auto",
+        "ess_target": 0.1,
+        "change_cost_per_variance": 3.0,
+        "filter_window": 9,
+        "filter_order": 2,
+        "best_sample_cluster": False,
+        "hysteresis": 50.0,
+    },
+}

@@ -74,3 +74,11 @@ def array(name, value, shape, finite=False):
         index = tuple(int(i) for i in np.argwhere(~np.isfinite(value))[0])
         raise ValueError(f"{name} must be finite; {name}{list(index)} is {value[index]}")
     return value
+
+
+def choice(name, value, valid):
+    """`value` if it is one of `valid` (names), else a ValueError naming `name` and listing
+    the valid names."""
+    if not isinstance(value, str) or value not in valid:
+        raise ValueError(f"{name} must be one of {', '.join(valid)}; got {value!r}")
+    return value

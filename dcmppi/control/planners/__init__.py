@@ -6,6 +6,7 @@
     dc.py            DC-MPPI (Alg. 3): Clustered MPPI with sampled obstacle futures
     tube.py          Tube-MPPI (Williams et al. 2018)
     temperature.py   lambda_="auto": the temperature chosen each step
+    smoothing.py     the change cost, the plan's filter, hysteresis (preset "smooth")
     diagnostics.py   what a step leaves for plots, videos and the bench
     registry.py      the controllers by name (built-ins load on first use)
 

@@ -12,6 +12,7 @@ plus its own. Each step, the predictor turns the moving obstacles into tracks, t
 scores rollouts, and the subclass's `_solve` plans with them.
 """
 
+import collections
 import dataclasses
 import functools
 import numbers
@@ -20,6 +21,7 @@ import numpy as np
 
 from dcmppi.control import defaults
 from dcmppi.control.agents import make_agent
+from dcmppi.control.defaults import PRESETS
 from dcmppi.control.kernels.costs import RESOLUTION, OccupancyGrid, valid_cylinders
 from dcmppi.control.kernels.perturbations import Draw, draw_normals
 from dcmppi.control.kernels.projection import NO_SUMS, bound, project_columns
@@ -27,11 +29,12 @@ from dcmppi.control.kernels.sums import importance_of
 from dcmppi.control.kernels.threads import parts, run
 from dcmppi.control.objective import Objective
 from dcmppi.control.planners.diagnostics import Diagnostics
+from dcmppi.control.planners.smoothing import change_costs, filter_coefficients, savitzky_golay
 from dcmppi.control.planners.temperature import COLLISION_NATS, ESS_TARGET, choose_lambda
 from dcmppi.control.predictors import predictor_class
 from dcmppi.control.predictors.base import INPUTS
 from dcmppi.control.timer import NO_TIMER
-from dcmppi.control.validation import floats, positive
+from dcmppi.control.validation import choice, floats, positive
 
 PERTURBATIONS = ("constant", "time_varying", "mixed")
 AUTO = "auto"  # lambda_ chosen each step (dcmppi.control.planners.temperature)
@@ -68,6 +71,14 @@ class Controller:
       prediction: the obstacle predictor: a registered name (dcmppi.control.predictors) or
         package.module:ClassName; default `default_prediction` ("frozen"; dc: "prior"). Its
         own parameters go alongside.
+      preset: a name of dcmppi.control.defaults.PRESETS: "paper" (default: the paper's
+        algorithms) or "smooth" (plans a robot can follow); it sets the options below, lambda_
+        and ess_target where they are not given.
+      change_cost: weight of the cost on control changes (dcmppi.control.planners.smoothing),
+        one number for every control or one per control, in cost units per squared unit of the
+        control (e.g. (m/s)^-2); 0: none (default; "smooth": 3 / Sigma).
+      filter_window, filter_order: the Savitzky-Golay filter of the plan, its odd window (>= 3;
+        0: no filter, the default; "smooth": 9) and polynomial order (< window; default 2).
     Attributes: agent, predictor, objective (the last step's), diagnostics (the last step's),
       timer (the profile's hook, dcmppi.control.timer).
 
@@ -94,8 +105,8 @@ class Controller:
         dt=defaults.DT,
         K=defaults.K,
         N=defaults.N,
-        lambda_=defaults.LAMBDA,
-        ess_target=ESS_TARGET,
+        lambda_=None,
+        ess_target=None,
         Sigma=None,
         gamma=defaults.GAMMA,
         alpha=defaults.ALPHA,
@@ -107,8 +118,15 @@ class Controller:
         obstacle_margin=0.0,
         threads=1,
         prediction=None,
+        preset=None,
+        change_cost=None,
+        filter_window=None,
+        filter_order=None,
         **other,
     ):
+        self.preset = choice("preset", "paper" if preset is None else preset, tuple(PRESETS))
+        lambda_ = self.option("lambda_", lambda_, defaults.LAMBDA)
+        ess_target = self.option("ess_target", ess_target, ESS_TARGET)
         self.prediction = prediction or self.default_prediction
         predictor = predictor_for(self.prediction)
         predictor_params = {n: other.pop(n) for n in predictor.own_params if n in other}
@@ -129,6 +147,19 @@ class Controller:
         self.obstacle_margin = positive("obstacle_margin", obstacle_margin, allow_zero=True)
         self.threads = positive("threads", threads, integer=True)
         self.seed = seed_param(seed)
+        self.change_cost = change_cost_param(
+            change_cost, self.Sigma, PRESETS[self.preset].get("change_cost_per_variance", 0.0)
+        )
+        self._change_weight = self.change_cost if self.change_cost.any() else None
+        self.filter_window, self.filter_order = filter_params(
+            self.option("filter_window", filter_window, 0),
+            self.option("filter_order", filter_order, 2),
+        )
+        self._filter = (
+            filter_coefficients(self.filter_window, self.filter_order)
+            if self.filter_window
+            else None
+        )
         self.predictor = predictor(
             N=self.N, dt=self.dt, robot_radius=self.robot_radius,
             max_speed=self.agent.max_speed, alpha=self.alpha, beta=self.beta, P=self.P,
@@ -146,8 +177,13 @@ class Controller:
     own_params = (
         "agent", "robot_radius", "dt", "K", "N", "lambda_", "ess_target", "Sigma", "gamma",
         "alpha", "beta", "P", "seed", "perturbation", "resolution", "obstacle_margin",
-        "threads", "prediction",
+        "threads", "prediction", "preset", "change_cost", "filter_window", "filter_order",
     )  # fmt: skip
+
+    def option(self, name, value, default):
+        """A parameter's value: `value` when given (not None), else the preset's, else
+        `default`."""
+        return PRESETS[self.preset].get(name, default) if value is None else value
 
     @classmethod
     def param_names(cls):
@@ -164,6 +200,7 @@ class Controller:
         predictor's."""
         out = {n: getattr(self, n) for n in self.param_names() if n not in ("seed", "agent")}
         out["Sigma"] = self.Sigma.tolist()
+        out["change_cost"] = self.change_cost.tolist()
         return {
             "agent": self.agent.name,
             **self.agent.params,
@@ -190,6 +227,8 @@ class Controller:
         self._draws = 0
         self.U = None  # set from the agent's first guess at the first step
         self._last_lambda = None  # "auto": where the next step's search starts
+        # the controls applied at the last steps, newest last (the change cost's and filter's)
+        self._applied = collections.deque(maxlen=max(1, (self.filter_window or 0) // 2))
         self.predictor.reset()
         self.diagnostics = self.diagnostics_class()
 
@@ -248,6 +287,7 @@ class Controller:
         self.diagnostics.prediction = prediction
         u = self._solve(state)
         self.diagnostics.action = u
+        self._applied.append(u)
         return u
 
     def _solve(self, state):
@@ -325,6 +365,10 @@ class Controller:
                 r.J[c0:c1], term = self.objective(r.states, True, whole)
                 if r.moving is not None:
                     r.moving[c0:c1] = 0.0 if term is None else term
+            if self._change_weight is not None:  # the change cost, the same from every start
+                change = self.change_costs(r.u, cols)
+                for start in range(0, len(r.J), k):  # the columns of each start state
+                    r.J[start + cols[0] : start + cols[1]] += change
 
     def importance(self, r, cols):
         """The samples cols = (j0, j1) of the Rollouts r: the importance term gamma lambda sum_i
@@ -386,12 +430,33 @@ class Controller:
         self._last_lambda = lam
         return lam
 
+    def change_costs(self, u, cols=None):
+        """The change cost (j1 - j0,) of the control sequences u[:, :, j0:j1] (u (N, nu, R);
+        cols = (j0, j1), None: all): their steps' changes and their first step's change from the
+        control applied at the last step (dcmppi.control.planners.smoothing)."""
+        j0, j1 = (0, np.shape(u)[2]) if cols is None else cols
+        previous = self._applied[-1] if self._applied else np.zeros(0)
+        weight = np.zeros(self.nu) if self._change_weight is None else self._change_weight
+        return change_costs(u, np.asarray(previous, dtype=float), weight, j0, j1)
+
+    def smoothed(self, plan):
+        """The plan (N, nu) through the Savitzky-Golay filter, the controls applied at the last
+        steps before it, projected into the agent's bounds; the plan itself without a filter."""
+        if self._filter is None:
+            return plan
+        history = np.array(self._applied).reshape(-1, self.nu)
+        with self.timer("filter"):
+            filtered = savitzky_golay(plan, history, self._filter)
+            return self.agent.project(filtered, axis=1)
+
     def finish(self, plan):
         """Apply the plan's first controls and warm-start the next step by shifting it.
 
-        plan: (N, nu). Returns plan[0] (nu,) in the agent's bounds (a weighted mean of bounded
-        controls may leave them by a rounding error).
+        plan: (N, nu), filtered first when the planner has a filter (smoothed). Returns plan[0]
+        (nu,) in the agent's bounds (a weighted mean of bounded controls may leave them by a
+        rounding error).
         """
+        plan = self.smoothed(plan)
         self.U = shifted(plan)
         self.diagnostics.plan = plan
         return bound(self.agent, plan[0])
@@ -488,6 +553,34 @@ def predictor_for(prediction):
             f"valid inputs: {', '.join(INPUTS)}"
         )
     return predictor
+
+
+def change_cost_param(value, Sigma, per_variance=0.0):
+    """change_cost as weights (nu,) >= 0, one per control of the variances Sigma (nu,): a
+    number for every control or one per control; None: per_variance / Sigma. A ValueError for
+    anything else."""
+    if value is None:
+        return per_variance / np.asarray(Sigma, dtype=float)
+    values = np.atleast_1d(np.asarray(floats("change_cost", value)))
+    if values.ndim != 1 or len(values) not in (1, len(Sigma)):
+        raise ValueError(
+            f"change_cost must be a number or one per control ({len(Sigma)}); got {value!r}"
+        )
+    for v in values.tolist():
+        positive("change_cost", v, allow_zero=True)
+    return np.broadcast_to(values, np.shape(Sigma)).astype(float)
+
+
+def filter_params(window, order):
+    """(filter_window, filter_order) as ints: a window 0 (no filter) or odd >= 3, an order
+    0 <= order < window; a ValueError for anything else."""
+    window = positive("filter_window", window, integer=True, allow_zero=True)
+    order = positive("filter_order", order, integer=True, allow_zero=True)
+    if window and (window < 3 or window % 2 == 0):
+        raise ValueError(f"filter_window must be 0 (no filter) or odd and >= 3; got {window}")
+    if window and order >= window:
+        raise ValueError(f"filter_order must be below filter_window ({window}); got {order}")
+    return window, order
 
 
 def share(name, value):

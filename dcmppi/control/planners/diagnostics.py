@@ -44,6 +44,8 @@ class ClusteredDiagnostics(Diagnostics):
     labels: (K,) DBSCAN labels (-1: noise); features: (K, nu + 1) the points DBSCAN clustered.
     cluster_controls: (M, N, nu) and cluster_costs: (M,) per-cluster sequences and their J.
     chosen: index of the chosen cluster, -1 for the fallback to Alg. 1 over all samples.
+    continued: with hysteresis, the index of the cluster that continues the warm start (-1:
+      none, or no hysteresis).
     """
 
     labels: np.ndarray = None
@@ -51,6 +53,7 @@ class ClusteredDiagnostics(Diagnostics):
     cluster_controls: np.ndarray = None
     cluster_costs: np.ndarray = None
     chosen: int = -1
+    continued: int = -1
 
 
 @dataclasses.dataclass

@@ -1,0 +1,105 @@
+"""Smoothness options that every planner shares (Controller): a cost on control changes and a
+Savitzky-Golay filter of the plan; and the clustered planners' choice of cluster with
+hysteresis. All are off by default (the paper's algorithms); `preset="smooth"` turns them on
+(dcmppi.control.defaults.PRESETS, docs/design.md).
+
+- change cost: sum_c W_c [(u_0c - a_c)^2 + sum_{i=0}^{N-2} (u_{i+1,c} - u_ic)^2] of a control
+  sequence u (N, nu), a the control applied at the previous step (no term at an episode's first
+  step), W_c the weight of control c in cost units per squared unit of that control (e.g.
+  (m/s)^-2). It joins each rollout's cost J (Controller.evaluate), so it shapes the weights of
+  every planner and the noise-free costs of the clustered planners' candidates.
+- filter: the plan's rows smoothed by the Savitzky-Golay filter of a window and polynomial order
+  (nav2's MPPI: 9 and 2), the window's first half reaching back over the controls applied at
+  the last steps (the plan's first row at an episode's start), its last half past the plan's
+  end over the last row repeated; then projected into the agent's bounds. The filtered plan is
+  both applied (its first row) and the next step's warm start (shifted).
+"""
+
+from fractions import Fraction
+
+import numba
+import numpy as np
+
+
+@numba.njit(cache=True)
+def change_costs(u, previous, weight, j0, j1):
+    """The change cost (j1 - j0,) of the sequences u[:, :, j0:j1] (u (N, nu, K)).
+
+    previous: (nu,) the control applied at the last step, or (0,): none. weight: (nu,) W_c.
+    Sums in a fixed order: over steps, then controls, for each sample.
+    """
+    n, nu, _ = u.shape
+    out = np.zeros(j1 - j0)
+    for c in range(nu):
+        w = weight[c]
+        if w == 0.0:
+            continue
+        if len(previous):
+            a = previous[c]
+            for k in range(j0, j1):
+                d = u[0, c, k] - a
+                out[k - j0] += w * d * d
+        for i in range(n - 1):
+            for k in range(j0, j1):
+                d = u[i + 1, c, k] - u[i, c, k]
+                out[k - j0] += w * d * d
+    return out
+
+
+def filter_coefficients(window, order):
+    """The Savitzky-Golay smoothing coefficients (window,) of the centre point (symmetric): the
+    value at 0 of the least-squares polynomial of degree `order` through the points x = -h..h
+    (h = window // 2), c_j = sum_k y_k x_j^k for (A^T A) y = e_0, A_jk = x_j^k. Solved in exact
+    fractions (the same floats on every machine; scipy.signal.savgol_coeffs' up to rounding)."""
+    half = window // 2
+    xs = range(-half, half + 1)
+    m = order + 1
+    rows = [[Fraction(sum(x ** (a + b) for x in xs)) for b in range(m)] + [Fraction(a == 0)]
+            for a in range(m)]  # fmt: skip
+    for col in range(m):  # Gauss-Jordan on the (symmetric positive definite) normal equations
+        pivot = next(r for r in range(col, m) if rows[r][col] != 0)
+        rows[col], rows[pivot] = rows[pivot], rows[col]
+        head = rows[col][col]
+        rows[col] = [v / head for v in rows[col]]
+        for r in range(m):
+            if r != col and rows[r][col] != 0:
+                factor = rows[r][col]
+                rows[r] = [v - factor * w for v, w in zip(rows[r], rows[col], strict=True)]
+    y = [rows[k][m] for k in range(m)]
+    return np.array([float(sum(y[k] * x**k for k in range(m))) for x in xs])
+
+
+def savitzky_golay(plan, history, coefficients):
+    """The plan (N, nu) filtered along its steps by the symmetric `coefficients` (window,).
+
+    history: (H, nu) the controls applied before the plan's first row, oldest first (H >= 0);
+    the window's half before the plan takes its last rows, repeating the oldest (or the plan's
+    first row when H = 0) where there are too few; the half past the plan's end repeats its last
+    row. Returns (N, nu): row i is sum_j coefficients[j] padded[i + j], summed in order of j.
+    """
+    plan = np.asarray(plan, dtype=float)
+    n, nu = plan.shape
+    half = len(coefficients) // 2
+    history = np.asarray(history, dtype=float).reshape(-1, nu)[-half:] if half else plan[:0]
+    first = history[0] if len(history) else plan[0]
+    padded = np.concatenate(
+        [
+            np.repeat(first[None], half - len(history), axis=0),
+            history,
+            plan,
+            np.repeat(plan[-1:], half, axis=0),
+        ]
+    )
+    out = coefficients[0] * padded[:n]
+    for j in range(1, len(coefficients)):
+        out += coefficients[j] * padded[j : j + n]
+    return out
+
+
+def continuing(U, U0, Sigma):
+    """The index of the candidate sequence among U (M, N, nu) that continues the warm start
+    U0 (N, nu): the least sum over steps and controls of (U_m - U0)^2 / Sigma, the nearest in
+    sampling variances (every candidate is U0 plus a weighted mean of its samples'
+    perturbations, so this is the cluster whose perturbations average nearest to none)."""
+    gap = (np.asarray(U) - np.asarray(U0)[None]) ** 2 / np.asarray(Sigma)
+    return int(np.argmin(gap.sum(axis=(1, 2))))

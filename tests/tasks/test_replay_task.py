@@ -182,7 +182,8 @@ def test_an_episode_runs_through_the_runner_with_the_human_reference():
     )  # fmt: skip
     result = run_episode(spec)
     assert result["outcome"] in ("goal", "collision", "time_limit")
-    assert result["scene"] == "crowds_zara01" and result["human_time"] > 0
+    assert result["scene"] == "zara1" and result["recording"] == "crowds_zara01"
+    assert result["human_time"] > 0
     assert 5.0 <= result["human_path_length"] and 0 < result["frame_path_length"]
     assert result["frame_path_length"] <= result["path_length"] + 1e-9
 

@@ -242,3 +242,110 @@ def _instant(moving, velocity, robot_xy, robot_v, robot_radius, pref):
             losses[near] = 1.0 - math.hypot(velocity[j, 0], velocity[j, 1]) / pref[j]
             near += 1
     return min_gap, personal, min_ttc, 0.0 + pairwise(losses[:near]), near
+
+
+# Smoothness and indecision (the applied controls and the path of an episode)
+LINEAR_CONTROLS = ("u_x", "u_y", "v")  # controls that are velocities [m/s]
+ANGULAR_CONTROLS = ("u_theta", "omega")  # controls that are turn rates [rad/s]
+STOP_SPEED = 0.05  # [m/s] below it over a control step, the direction of travel is undefined
+TURN_DEADBAND = 0.05  # [rad/s] a course rate this small counts as going straight
+SIDE_DEADBAND = 0.1  # [m] closer than this to the line through the obstacle: on neither side
+
+
+def control_rates(actions, controls, dt: float) -> tuple[float | None, float | None]:
+    """The applied control's mean rate of change: (linear [m/s^2], angular [rad/s^2]).
+
+    actions (n, nu): the controls the controller commanded at each step (before any control
+    noise of the task), named by `controls` (the agent's, e.g. ("u_x", "u_y", "u_theta")).
+    linear: the mean over consecutive steps of |du| / dt, the Euclidean norm over the controls
+    that are velocities (LINEAR_CONTROLS: a holonomic robot's u_x, u_y; a unicycle's v);
+    angular: the same of the turn rate (ANGULAR_CONTROLS: u_theta, omega). None where the
+    agent has no such control (the Dubins car's speed is fixed) or for fewer than two steps.
+    """
+    if len(actions) < 2:
+        return None, None
+    u = np.asarray(actions, dtype=np.float64).reshape(len(actions), -1)
+    du = np.diff(u, axis=0) / dt
+
+    def rate(names):
+        cols = [i for i, c in enumerate(controls) if c in names]
+        return float(np.linalg.norm(du[:, cols], axis=1).mean()) if cols else None
+
+    return rate(LINEAR_CONTROLS), rate(ANGULAR_CONTROLS)
+
+
+def turn_sign_changes(path, dt: float) -> int:
+    """How often the path's turn rate changes sign: indecision, the robot turning left, then
+    right, then left.
+
+    path (n, 2): the robot's positions at the control instants, dt apart. The turn rate is the
+    rate of change of the direction of travel (the course): for the Dubins car and the unicycle
+    their heading rate (up to the plant's lag), for the holonomic robot, whose heading need not
+    follow its motion, the rate at which its velocity turns (the sign of its lateral
+    acceleration). Steps slower than STOP_SPEED are skipped (no direction); a course rate
+    below TURN_DEADBAND is straight (no sign); the count is the sign changes between the
+    remaining turns, in order (left, straight, left is no change; left, right is one).
+    """
+    d = np.diff(np.asarray(path, dtype=np.float64), axis=0)
+    d = d[np.hypot(d[:, 0], d[:, 1]) >= STOP_SPEED * dt]
+    if len(d) < 2:
+        return 0
+    a, b = d[:-1], d[1:]
+    turn = np.arctan2(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0], (a * b).sum(axis=1))
+    signs = np.sign(turn[np.abs(turn) >= TURN_DEADBAND * dt])
+    return int(np.count_nonzero(signs[1:] != signs[:-1]))
+
+
+def indecision(path, dt: float) -> dict:
+    """turn_sign_changes of the path, and per metre travelled (indecision_per_m; None for a
+    path of length 0) and per second of the episode (indecision_per_s, (n - 1) dt; None for
+    a path of one instant)."""
+    p = np.asarray(path, dtype=np.float64)
+    changes = turn_sign_changes(p, dt)
+    length = float(np.hypot(*np.diff(p, axis=0).T).sum()) if len(p) > 1 else 0.0
+    duration = (len(p) - 1) * dt
+    return {
+        "turn_sign_changes": changes,
+        "indecision_per_m": changes / length if length > 0 else None,
+        "indecision_per_s": changes / duration if duration > 0 else None,
+    }
+
+
+def side_commitment(path, dt: float, start, goal, centre) -> dict:
+    """When the robot commits to one side of a single obstacle, and how often it switches.
+
+    path (n, 2): the robot's positions at the control instants, dt apart; start, goal (2,);
+    centre (2,): the obstacle's centre. The side at an instant is the sign of the cross
+    product of (goal - start) and (robot - centre): +1 left of the line through the centre
+    along the start-goal direction, -1 right, none within SIDE_DEADBAND of it. Only the
+    instants until the robot draws level with the centre count (its progress along the
+    start-goal direction reaches the centre's: after that, the side has been chosen).
+
+    Returns {commit_time [s], commit_delay [s], side_switches}: side_switches, the changes
+    of side (left to right or back, instants on neither side skipped) after the first instant
+    on a side; commit_time, the first instant from which the robot never changes side again
+    (the start of its last side), from the episode's start; commit_delay, commit_time less the
+    first instant on a side (0 for a robot that never switches: how long it hesitated once it
+    left the line). commit_time and commit_delay are None if the robot never leaves the
+    deadband (driving straight into the obstacle).
+    """
+    p = np.asarray(path, dtype=np.float64)
+    e = np.asarray(goal, dtype=np.float64) - np.asarray(start, dtype=np.float64)
+    e = e / np.hypot(*e)
+    rel = p - np.asarray(centre, dtype=np.float64)
+    along = rel @ e
+    lateral = e[0] * rel[:, 1] - e[1] * rel[:, 0]
+    level = np.flatnonzero(along >= 0)
+    end = level[0] + 1 if level.size else len(p)
+    side = np.where(np.abs(lateral[:end]) > SIDE_DEADBAND, np.sign(lateral[:end]), 0.0)
+    decided = np.flatnonzero(side)
+    if not decided.size:
+        return {"commit_time": None, "commit_delay": None, "side_switches": 0}
+    s = side[decided]
+    changes = np.flatnonzero(s[1:] != s[:-1])
+    commit = decided[changes[-1] + 1] if changes.size else decided[0]
+    return {
+        "commit_time": float(commit * dt),
+        "commit_delay": float((commit - decided[0]) * dt),
+        "side_switches": int(changes.size),
+    }

@@ -17,7 +17,14 @@ from collections.abc import Callable
 
 import numpy as np
 
-from dcmppi.bench.episodes.metrics import Diagnosis, FieldMetrics, spl
+from dcmppi.bench.episodes.metrics import (
+    Diagnosis,
+    FieldMetrics,
+    control_rates,
+    indecision,
+    side_commitment,
+    spl,
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -261,7 +268,8 @@ class Episode:
 
     Attributes: spec, env, controller, time_step (the latest dm_env TimeStep), poses (list of
     (3,) robot poses x, y, yaw, the start's and one per step), path (array (steps + 1, 2) of
-    their positions), ctrl_s and env_s (seconds per step in the controller and in env.step),
+    their positions), actions (the controller's action (nu,) of every step, before any control
+    noise of the task), ctrl_s and env_s (seconds per step in the controller and in env.step),
     diagnosis (`Diagnosis` of every step), metrics (`FieldMetrics` of every step).
     """
 
@@ -278,6 +286,7 @@ class Episode:
         warm_up(spec, self.observation)
         self.ctrl_s: list[float] = []
         self.env_s: list[float] = []
+        self.actions: list[np.ndarray] = []
         self.diagnosis = Diagnosis()
         self.metrics = FieldMetrics(self.env)
 
@@ -312,6 +321,7 @@ class Episode:
         t2 = time.perf_counter()
         self.ctrl_s.append(t1 - t0)
         self.env_s.append(t2 - t1)
+        self.actions.append(action)
         self.diagnosis.read(self.controller, observation["robot_pose"])
         self.poses.append(self.time_step.observation["robot_pose"].copy())
         self.metrics.read(self.env.physics)
@@ -354,24 +364,56 @@ class Episode:
             **self.diagnosis.result(),
             "wall_s": time.perf_counter() - self.start,
             "final_pose": [float(v) for v in self.poses[-1]],
+            "goal_distance": float(np.hypot(*(path[-1] - world.goal[:2]))),
             "trace": encode_trace(self.poses),
+            **self._smoothness(path),
+            **self._commitment(path),
             **self._human(path),
         }
 
+    def _smoothness(self, path) -> dict:
+        """control_rate_linear [m/s^2] and control_rate_angular [rad/s^2] of the actions
+        (`control_rates`; None where the agent has no such control), turn_sign_changes,
+        indecision_per_m and indecision_per_s of the path (`indecision`)."""
+        dt = self.env.control_timestep()
+        controls = tuple(self.env.task.agent.controls)
+        linear, angular = control_rates(self.actions, controls, dt)
+        return {
+            "control_rate_linear": linear,
+            "control_rate_angular": angular,
+            **indecision(path, dt),
+        }
+
+    def _commitment(self, path) -> dict:
+        """In the task `blocked` (one obstacle between start and goal): commit_time [s],
+        commit_delay [s] and side_switches of `side_commitment`; else nothing."""
+        from dcmppi.tasks.two_valley import Blocked
+
+        if not isinstance(self.env.task, Blocked):
+            return {}
+        world = self.env.task.world
+        dt = self.env.control_timestep()
+        return side_commitment(path, dt, world.start[:2], world.goal, world.static[0, :2])
+
     def _human(self, path) -> dict:
         """Where the robot replaces a recorded person (the task `replay`, its `human`): scene
-        (the recording), person (their id), human_time [s] and human_path_length [m] (their
-        time to the goal region and path to it), frame_path_length [m] (the robot's path
-        sampled alike, at the recording's frame period); else nothing."""
+        (the test scene of recordings.SCENES that holds the recording, e.g. "univ" for
+        students001; else the recording's name), recording (the file's name), person (their
+        id in it), human_time [s] and human_path_length [m] (their time to the goal region and
+        path to it), frame_path_length [m] (the robot's path sampled alike, at the recording's
+        frame period); else nothing."""
         human = getattr(self.env.task, "human", None)
         if human is None:
             return {}
+        from dcmppi.tasks.recordings import SCENES
         from dcmppi.tasks.replay import sampled_path_length
 
         times = np.arange(len(path)) * self.env.control_timestep()
+        scene = next((k for k, files in SCENES.items() if human.recording in files), None)
         return {
-            "scene": human.recording,
-            "person": human.id,
+            "scene": scene or human.recording,
+            "recording": human.recording,
+            "person": int(human.id),
             "human_time": human.time_to_goal,
             "human_path_length": human.path_length,
             "frame_path_length": sampled_path_length(times, path, human.period),
@@ -402,10 +444,15 @@ def run_episode(
       ped_speed_loss), min_clearance [m], ctrl_ms_mean, ctrl_ms_p95 (controller time per
       step, first-call costs excluded by `warm_up`), env_ms_mean, the diagnostics ess_mean,
       clusters_mean, fallback_share, tube_deviation_p95 [m] (None where the controller records
-      none; see `Diagnosis`), wall_s, final_pose ([x, y, yaw] when it ended), trace (bytes: the
+      none; see `Diagnosis`), wall_s, final_pose ([x, y, yaw] when it ended), goal_distance
+      ([m] from the robot's final position to the goal's centre), trace (bytes: the
       robot's pose at every control instant, see `encode_trace`; `dcmppi.bench.runs.replay` compares
-      it); where the robot replaces a recorded person (the task `replay`) also scene, person,
-      human_time, human_path_length and frame_path_length (see `Episode._human`).
+      it); the smoothness metrics control_rate_linear [m/s^2], control_rate_angular
+      [rad/s^2], turn_sign_changes, indecision_per_m, indecision_per_s (see
+      `Episode._smoothness`); in the task `blocked` also commit_time [s], commit_delay [s] and
+      side_switches (`Episode._commitment`); where the robot replaces a recorded person (the
+      task `replay`) also scene, recording, person, human_time, human_path_length and
+      frame_path_length (see `Episode._human`).
     """
     episode = Episode(spec)
     if on_step is not None:

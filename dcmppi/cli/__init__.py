@@ -1,5 +1,5 @@
 """The `dcmppi` command line: tasks, controllers, run, compare, figure, bench, report, replay,
-outcomes, reach, predictor, timing.
+outcomes, reach, predictor, record, timing.
 
 One module per command, each with `add_parser(subparsers, names)` (the command's options;
 `names`: what --help lists, `common.choices()`) and `run(args)` (the command; returns the exit
@@ -26,6 +26,7 @@ from dcmppi.cli import (
     outcomes,
     predictor,
     reach,
+    record,
     replay,
     report,
     run,
@@ -46,6 +47,7 @@ COMMANDS = (
     outcomes,
     reach,
     predictor,
+    record,
     timing,
 )
 

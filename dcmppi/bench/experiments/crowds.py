@@ -1,0 +1,110 @@
+"""Simulated crowds recorded as ETH/UCY recordings: the moving obstacles of a task's episodes
+written in the four-column format (`dcmppi.tasks.recordings`), so that the `learned` predictor
+trains on them as on recorded people (`dcmppi record`, a model recipe's `record`).
+
+The robot is absent: it is parked far away and still while the obstacles step by their own
+model (`dcmppi.bench.episodes.futures.obstacle_tracks`, what the true futures use), so the
+crowd walks as it would with nobody else there, whether or not it could see a robot
+(`robot_visible`). The recordings are of crowds without a robot, as ETH/UCY's are, and where an
+experiment's pedestrians are blind to the robot (square-orca), its test episodes move exactly
+as recorded ones of their seeds would.
+
+Episode e is the task with `random` = SeedSequence([base_seed, e])'s first word (what
+`Experiment.seed` gives environment e of an experiment of that base seed), run for `seconds`
+(default: the task's time limit); a frame every `period` seconds (a whole number of control
+steps), the first at the reset. Each episode's frames follow the previous one's after a gap of
+one frame, and each person (a row of the moving obstacles while it holds someone) gets an id of
+their own, so no window or neighbour spans two episodes.
+"""
+
+import numpy as np
+
+from dcmppi.bench.episodes import futures
+from dcmppi.tasks import recordings
+
+WITH_PEDESTRIANS = ("square", "corridor", "crowd")  # named in errors: tasks with walkers
+
+
+def episode_seed(base_seed: int, episode: int) -> int:
+    """The task seed of episode `episode` (as `Experiment.seed` derives environment seeds)."""
+    return int(np.random.SeedSequence([base_seed, episode]).generate_state(1)[0])
+
+
+def record(
+    task,
+    task_params=None,
+    episodes=1,
+    base_seed=0,
+    period=recordings.PERIOD,
+    seconds=None,
+    name="recorded",
+) -> recordings.Recording:
+    """The moving obstacles of `episodes` episodes of `task` (module docstring) as a Recording
+    of `period` [s] between frames; deterministic for a base seed.
+
+    Raises:
+      ValueError: one line, for a task without moving obstacles, the replay task (its people
+        are recordings already), a period that is no whole number of control steps, or bad
+        counts.
+    """
+    from dcmppi import tasks
+
+    if task == "replay":
+        raise ValueError(
+            "record: the replay task's people are recordings already; train on their files "
+            "(dcmppi predictor train --data FILES)"
+        )
+    if episodes < 1:
+        raise ValueError(f"record: episodes must be >= 1, got {episodes}")
+    if not period > 0 or (seconds is not None and not seconds > 0):
+        raise ValueError(f"record: period and seconds must be > 0, got {period}, {seconds}")
+    params = dict(task_params or {})
+    for reserved in ("random", "noise"):
+        if reserved in params:
+            raise ValueError(f"record: {reserved} is set per episode; remove it")
+    tracks, frame0, next_id = [], 0, 1
+    for e in range(episodes):
+        env = tasks.load(task, task_kwargs={**params, "random": episode_seed(base_seed, e)})
+        env.reset()
+        dt = env.control_timestep()
+        stride = int(round(period / dt))
+        if stride < 1 or abs(stride * dt - period) > 1e-9:
+            raise ValueError(
+                f"record: period {period} s is no whole number of control steps of {dt:g} s"
+            )
+        start = np.asarray(env.task.world.moving, dtype=float).reshape(-1, 4)[:, :2]
+        if not len(start):
+            raise ValueError(
+                f"record: task {task} has no moving obstacles to record; tasks with pedestrians: "
+                + ", ".join(WITH_PEDESTRIANS)
+            )
+        present = [futures.obstacle_presence(env)]
+        xy = [start]
+        steps = int(round((seconds if seconds is not None else env.task.time_limit) / dt))
+        for k, now in enumerate(futures.obstacle_tracks(env, steps), start=1):
+            if k % stride == 0:
+                xy.append(np.asarray(now, dtype=float))
+                present.append(futures.obstacle_presence(env))
+        env.close()
+        xy, present = np.stack(xy), np.stack(present)  # (F, L, 2), (F, L)
+        frames = frame0 + np.arange(len(xy))
+        for row in range(xy.shape[1]):
+            for part in _runs(present[:, row]):
+                tracks.append(
+                    recordings.Track(
+                        next_id,
+                        frames[part] * float(recordings.FRAME_STEP),
+                        frames[part] * period,
+                        xy[part, row].copy(),
+                    )
+                )
+                next_id += 1
+        frame0 += len(xy) + 1
+    tracks.sort(key=lambda t: (t.frames[0], t.id))
+    return recordings.Recording(name, float(period), tuple(tracks))
+
+
+def _runs(present) -> list:
+    """The index arrays of the runs of True in `present` (F,) of two frames or more."""
+    edges = np.flatnonzero(np.diff(np.r_[0, present.astype(int), 0]))
+    return [np.arange(a, b) for a, b in zip(edges[::2], edges[1::2], strict=True) if b - a >= 2]

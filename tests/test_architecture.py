@@ -49,7 +49,12 @@ MAY_IMPORT = {
     # bench's layers: one episode, experiments, the database, many episodes, reports; timing
     # may use them all
     "dcmppi.bench.episodes": ("dcmppi.control", "dcmppi.tasks"),
-    "dcmppi.bench.experiments": ("dcmppi.bench.episodes", "dcmppi.tasks"),
+    # model recipes train the learned predictor (its fit) on recorded or simulated crowds
+    "dcmppi.bench.experiments": (
+        "dcmppi.bench.episodes",
+        "dcmppi.control.predictors.learned",
+        "dcmppi.tasks",
+    ),
     "dcmppi.bench.results": (
         "dcmppi.TOP_LEVEL_FOLDERS",
         "dcmppi.__version__",

@@ -3,6 +3,7 @@ eval` (the standard ETH/UCY forecast protocol)."""
 
 import json
 
+from dcmppi.bench.experiments import models
 from dcmppi.bench.forecasts import evaluation
 from dcmppi.cli.common import command
 from dcmppi.control.predictors import learned
@@ -88,9 +89,8 @@ def run(args) -> int:
 
 def train(args) -> int:
     names = recordings.train_files(args.leave_out) if args.leave_out else args.data
-    windows = recordings.windows([recordings.load(n, args.folder, args.period) for n in names])
-    model = learned.fit(windows, args.seed, max_windows=args.max_windows)
-    model.save(args.out)
+    data = [recordings.load(n, args.folder, args.period) for n in names]
+    model = models.train(data, args.out, args.seed, args.max_windows)
     print(
         f"{args.out}: {len(model.features)} windows of {len(names)} files, shrink "
         f"{model.shrink:.2f}, sha256 {learned.sha256(args.out)}"

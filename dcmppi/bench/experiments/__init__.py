@@ -7,8 +7,13 @@ BARN world of the `layout` task) also sets that task parameter to i in environme
 shipped experiments (static, dynamic, dynamic-dubins, barn) are TOML files beside this module;
 `load_experiment` takes their names or a path. The file format: `dcmppi.bench.experiments.schema`.
 
-May import dcmppi.tasks (task names, noise profiles) and dcmppi.bench.episodes.plugins (controller
-names); runs nothing itself.
+A controller parameter `model` given as a table is a model recipe (`models`): environment i's
+spec holds the path of a `learned` predictor's model trained for it (e.g. on the ETH/UCY scenes
+other than environment i's), trained on first use and cached.
+
+May import dcmppi.tasks (task names, noise profiles, recordings), dcmppi.bench.episodes
+(controller names; the obstacles' own motion, which `crowds` records) and the learned
+predictor's training (`models`); runs no episode itself.
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ from typing import NamedTuple
 import numpy as np
 
 from dcmppi.bench.episodes.runner import EpisodeSpec
+from dcmppi.bench.experiments import models
 from dcmppi.bench.experiments.schema import RESERVED, ExperimentError, check_params, parse
 
 if sys.version_info >= (3, 11):
@@ -157,9 +163,20 @@ class Experiment:
             noise=noise,
             seed=self.seed(index),
             task_params=task_params,
-            controller_params=dict(row.params),
-            shared_params=dict(self.controller_params),
-        )
+            controller_params=self._models(f"row {label!r}", row.params, task_params, index),
+            shared_params=self._models("controller_params", self.controller_params, task_params,
+                                       index),
+        )  # fmt: skip
+
+    def _models(self, where: str, params: dict, task_params: dict, index: int) -> dict:
+        """`params` with each model recipe replaced by the path of its trained file, trained
+        first where it is missing (`models`)."""
+        out = dict(params)
+        for name, value in params.items():
+            if models.is_recipe(name, value):
+                resolved = models.resolve(where, value, self, task_params, index)
+                out[name] = str(models.ensure(where, resolved))
+        return out
 
     def specs(
         self, shard: tuple[int, int] = (0, 1)

@@ -24,6 +24,7 @@ from __future__ import annotations
 import json
 import numbers
 
+from dcmppi.bench.experiments import models
 from dcmppi.tasks import NOISE_PROFILES
 
 TOP_KEYS = {
@@ -92,7 +93,7 @@ def _table(source, key, data, keys, required=()) -> dict:
     return data
 
 
-def check_params(source, key, data, reserved) -> dict:
+def _check_values(source, key, data, reserved) -> dict:
     """`data` (parameters at `key`) checked: no name in `reserved`, values JSON without NaN or
     infinities; a copy."""
     for name, value in data.items():
@@ -245,3 +246,17 @@ def _row(source, i, data, resolve) -> dict:
         "params": check_params(source, f"{key}.params", data.get("params", {}), RESERVED["params"]),
         "paper": paper,
     }
+
+
+def check_params(source, key, data, reserved) -> dict:
+    """`data` (parameters at `key`) checked: no name in `reserved`, values JSON without NaN or
+    infinities, a model recipe's keys and types (`models.check`); a copy."""
+    out = _check_values(source, key, data, reserved)
+    for name, value in out.items():
+        if models.is_recipe(name, value):
+            try:
+                models.check(f"{key}.{name}", value)
+            except models.RecipeError as e:
+                where = f"{key}.{name}"
+                raise ExperimentError(source, where, f"model recipe: {e.reason}") from None
+    return out

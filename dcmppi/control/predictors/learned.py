@@ -19,7 +19,8 @@ squares on held-out folds (each recording held out in turn): the mean of few nei
 noisy and a model trained on other scenes biased, so it moves only as far from constant velocity
 as held-out data supports.
 
-The predictor `learned` (parameter `model`: the path of a file that `Model.save` wrote) keeps
+The predictor `learned` (parameter `model`: the path of a file that `Model.save` wrote; in an
+experiment, a recipe that the bench trains and caches: dcmppi.bench.experiments.models) keeps
 each pedestrian's positions over the last (obs - 1) x period seconds, one per step, and matches
 the pedestrians of a step to those of the previous one by the assignment of least total distance
 from where they were heading (scipy's linear_sum_assignment; a jump over GATE + GATE_SPEED dt
@@ -299,7 +300,11 @@ class Learned(Given):
             )
         path = pathlib.Path(model)
         if not path.is_file():
-            raise ValueError(f"prediction 'learned': model={model}: no such file")
+            raise ValueError(
+                f"prediction 'learned': model={model}: no such file; train it with `dcmppi "
+                "predictor train --data FILES --out MODEL` (or give model a recipe table in an "
+                "experiment)"
+            )
         stat = path.stat()
         self.model = str(model)
         self.trained = _cached(str(path.resolve()), (stat.st_mtime_ns, stat.st_size))

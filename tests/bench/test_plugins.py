@@ -59,7 +59,7 @@ def test_own_parameters_must_be_taken_shared_ones_by_some_controller():
         (f"{MODULE}:NoAct", "class NoAct has no act(); a controller needs act(state, goal"),
         (f"{MODULE}:factory", "is a function, not a class"),
         (f"{MODULE}:", "expected package.module:ClassName"),
-        ("fancy", "unknown controller 'fancy'; valid: clustered, dc, mppi, tube, or package"),
+        ("fancy", "unknown controller 'fancy'; valid: clustered, dc, dwa, hl, hrvo, mppi, orca, "),
     ],
 )
 def test_a_bad_controller_name_gets_one_clear_line(name, message, capsys):
@@ -103,7 +103,8 @@ def test_entry_points_appear_by_name(monkeypatch, capsys):
         mppi=f"{MODULE}:Careful",  # a built-in name wins
         broken="no_such_module:C",
     )
-    names = ["clustered", "dc", "mppi", "tube", "broken", "straight"]
+    names = ["clustered", "dc", "dwa", "hl", "hrvo", "mppi", "orca", "social_force", "tube"]
+    names += ["broken", "straight"]
     assert plugins.available_controllers() == names
     assert plugins.resolve_controller("straight") is user_controllers.Straight
     assert plugins.resolve_controller("mppi").__name__ == "MPPI"

@@ -14,8 +14,9 @@ MODEL = np.array([1.0, 0.29, 0.0, 0.29])
 
 
 def test_registry_lists_names():
-    assert set(dcmppi.controller_names()) == set(NAMES)
-    with pytest.raises(ValueError, match="valid names: clustered, dc, mppi, tube"):
+    classical = {"orca", "hrvo", "hl", "social_force", "dwa"}  # tests/control/test_classical.py
+    assert set(dcmppi.controller_names()) == {*NAMES, *classical}
+    with pytest.raises(ValueError, match="valid names: clustered, dc, dwa, hl, hrvo, mppi, orca, "):
         dcmppi.make_controller("nope")
 
 

@@ -9,7 +9,7 @@ from dcmppi.control.agents import Agent, agent_class
 from dcmppi.control.predictors import predictor_class
 from dcmppi.control.registry import Registry
 
-BUILTIN = ("mppi", "clustered", "dc", "tube")
+BUILTIN = ("mppi", "clustered", "dc", "tube", "classical")  # classical: orca, hrvo, hl, dwa ...
 CONTROLLERS = Registry("controller", builtins=[f"{__package__}.{m}" for m in BUILTIN])
 
 

@@ -14,8 +14,11 @@ def run(args) -> int:
     from dcmppi.control.predictors import predictor_class, predictor_names
 
     print("controllers (--controller NAME, or package.module:ClassName for your own class):")
+    every = ", ".join(agent_names())
     for name in controller_names():
-        print(f"  {name:12s} built-in: {_summary(controller_class(name))}")
+        cls = controller_class(name)
+        agents = ", ".join(getattr(cls, "agents", None) or ()) or every  # MPPI's: every agent
+        print(f"  {name:12s} built-in: {_summary(cls)} (agents: {agents})")
     for name, ep in sorted(entry_points().items()):
         if name not in controller_names():
             dist = f", from {ep.dist.name} {ep.dist.version}" if ep.dist else ""

@@ -41,8 +41,7 @@ INSCRIBED_COST = 252.0  # nav2's inflation: cost just outside the inscribed radi
 
 @register("dwa")
 class DWA(Classical):
-    """Dynamic window (nav2 DWB's critics, no global path); unicycle, dubins (omega only),
-    holonomic.
+    """Dynamic window, sampled velocities scored by nav2 DWB's critics (Fox et al. 1997).
 
     Args (keywords; the robot's as `Classical`), defaults and their sources (nav2 DWB's
     defaults, nav2_params.yaml and dwb_plugins/dwb_critics):

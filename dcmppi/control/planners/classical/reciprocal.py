@@ -97,7 +97,7 @@ class Reciprocal(Classical):
 
 @register("orca")
 class ORCA(Reciprocal):
-    """ORCA (van den Berg et al. 2011) by navground; holonomic, unicycle.
+    """ORCA, reciprocal velocity obstacles (van den Berg et al. 2011), by navground.
 
     Args (keywords; the robot's as `Classical`), defaults and their sources:
       time_horizon: 5 s, for neighbours and static obstacles (CrowdNav's ORCA, as the orca
@@ -150,7 +150,7 @@ class ORCA(Reciprocal):
 
 @register("hrvo")
 class HRVO(Reciprocal):
-    """HRVO (Snape et al. 2011) by navground; holonomic, unicycle (ignores the map's edges).
+    """HRVO, hybrid reciprocal velocity obstacles (Snape et al. 2011), by navground.
 
     Args (keywords; the robot's as `Classical`), defaults and their sources:
       max_neighbors: 10 (as orca: CrowdNav's ORCA; navground's default 1000).
@@ -194,7 +194,7 @@ class HRVO(Reciprocal):
 
 @register("hl")
 class HL(Reciprocal):
-    """HL, the human-like heuristic (Guzzi et al. 2013) by navground; holonomic, unicycle.
+    """HL, the human-like heuristic (Guzzi et al. 2013), by navground.
 
     Args (keywords; the robot's as `Classical`), defaults navground's (Guzzi et al.'s):
       tau: 0.125 s, relaxation time of the speed. eta: 0.5 s, time to reach the obstacle-free

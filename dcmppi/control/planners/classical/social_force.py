@@ -23,7 +23,7 @@ from dcmppi.control.validation import positive
 
 @register("social_force")
 class SocialForce(Classical):
-    """The project's social force (Helbing & Molnar 1995) towards the goal; holonomic, unicycle.
+    """The pedestrians' social force (Helbing & Molnar 1995) walking the robot to its goal.
 
     Args (keywords; the robot's as `Classical`), defaults and their sources:
       A: 10 m/s^2, B: 0.3 m, tau: 0.5 s (dcmppi.control.kernels.social: the pedestrians').

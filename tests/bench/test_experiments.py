@@ -20,7 +20,8 @@ def test_shipped_experiments_hold_the_papers_setup():
     ]  # fmt: skip
     static = load_experiment("static")
     assert (static.task, static.episodes, static.base_seed) == ("forest", 1000, 2024)
-    assert static.labels == ("mppi", "tube", "clustered")
+    classical = ("orca", "hrvo", "hl", "social_force", "dwa")  # tests/control/test_classical.py
+    assert static.labels == ("mppi", "tube", "clustered", "dwa")
     assert static.noises == ("none", "control", "process")
     assert static.reference == "mppi"
     assert static.paper("control", "clustered") == Paper(26, 2.9, 199)
@@ -33,7 +34,9 @@ def test_shipped_experiments_hold_the_papers_setup():
         "beta": 100.0,
         "Sigma": [1.0, 1.0, 0.1],
     }
-    assert dynamic.labels == ("mppi", "clustered", "mppi+margin", "clustered+margin", "tube", "dc")
+    assert dynamic.labels == (
+        "mppi", "clustered", "mppi+margin", "clustered+margin", "tube", "dc", *classical
+    )  # fmt: skip
     assert dynamic.row("clustered+margin").controller == "clustered"
     assert dynamic.row("clustered+margin").params == {"obstacle_margin": 0.5}
     assert (dynamic.episodes, dynamic.reference, dynamic.noises) == (300, "dc", ("none",))
@@ -69,6 +72,7 @@ def test_shipped_experiments_hold_the_papers_setup():
             "dc-social",
             "dc-social-blind",
             *oracle,
+            *classical,
         )
         assert walking.row("dc-social").params == {"prediction": "social"}
     square = load_experiment("square-orca")

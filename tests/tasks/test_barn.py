@@ -73,7 +73,7 @@ def test_barn_experiment_maps_environment_i_to_world_i():
         "world",
         "mppi",
     )
-    assert exp.labels == ("mppi", "clustered", "tube")
+    assert exp.labels == ("mppi", "clustered", "tube", "dwa")
     assert exp.task_params["agent"] == "unicycle" and exp.task_params["robot_radius"] == 0.3
     assert 100 - exp.paper("none", "mppi").failure_pct == pytest.approx(80.5)
     assert 100 - exp.paper("none", "clustered").failure_pct == pytest.approx(80.2)
@@ -82,9 +82,8 @@ def test_barn_experiment_maps_environment_i_to_world_i():
         assert spec.task_params["world"] == i and spec.seed == exp.seed(i)
     assert exp.config()["env_param"] == "world"  # a database is bound to it
     # --episodes n picks the first n worlds
-    assert [spec.task_params["world"] for _, spec in exp.select(episodes=2).specs()] == [0] * 3 + [
-        1
-    ] * 3
+    worlds = [spec.task_params["world"] for _, spec in exp.select(episodes=2).specs()]
+    assert worlds == [0] * len(exp.labels) + [1] * len(exp.labels)
     exp = exp.with_params({"path": str(BARN)}, {})
     cylinders = np.loadtxt(BARN, delimiter=",", skiprows=1)
     env = make_env(exp.spec("none", "mppi", 1))

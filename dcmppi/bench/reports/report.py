@@ -8,6 +8,9 @@ against the experiment's reference row on the same environments with McNemar's e
 collisions; the paper's figures beside ours where the experiment gives them. Episodes with a
 navigation score (BARN worlds) get a table of their own: success rate (Wilson) and mean score
 with a 95 % percentile-bootstrap interval, and the paired score difference to the reference.
+Smoothness (jerk, the applied control's rate, indecision; the task blocked's commitment to a
+side) gets a table where episodes record it, and replays of recorded people (the task replay)
+a table per scene against the people the robot replaced.
 A database that is still being written, or holds fewer episodes for some rows than for others
 or than the experiment asked for, gets a notice with the counts per row.
 """
@@ -20,19 +23,27 @@ import datetime
 import os
 from pathlib import Path
 
+from dcmppi.bench.episodes.metrics import SIDE_DEADBAND, STOP_SPEED, TURN_DEADBAND
 from dcmppi.bench.experiments import Experiment, Row
 from dcmppi.bench.results.database import TABLE_COLUMNS, ResultsDB, _canonical, writer_alive
 from dcmppi.bench.results.provenance import differences, short
 from dcmppi.bench.results.stats import (
+    ALL_SCENES,
+    COMMIT_WITHIN,
+    FREEZE_MARGIN,
     field_metrics,
     fmt,
     noise_order,
     paired,
     paired_scores,
     per_step,
+    replay_scenes,
     row_order,
+    scene_order,
+    smoothness,
     summarize,
 )
+from dcmppi.tasks.world_base import GOAL_TOLERANCE
 
 METRICS_NOTE = (
     "Per row over its finished episodes. Rates in % with 95 % Wilson intervals: success (the "
@@ -63,6 +74,51 @@ METRICS_COLUMNS = (
     ("Personal space %", "personal_space_share", 1),
     ("Min TTC [s] (median)", "min_ttc", 2),
     ("Speed loss %", "ped_speed_loss", 1),
+)
+
+# The smoothness table: (heading, smoothness key, digits).
+SMOOTHNESS_COLUMNS = (
+    ("Jerk [m/s^3]", "jerk_mean", 1),
+    ("Control rate, velocity [m/s^2]", "control_rate_linear", 2),
+    ("Control rate, turn [rad/s^2]", "control_rate_angular", 2),
+    ("Turn sign changes per m", "indecision_per_m", 3),
+    ("Turn sign changes per s", "indecision_per_s", 3),
+)
+COMMIT_COLUMNS = (  # the task blocked's
+    ("Commit time [s]", "commit_time", 2),
+    (f"Committed within {COMMIT_WITHIN:g} s %", "committed", 1),
+    (f"Settled within {COMMIT_WITHIN:g} s of leaving the line %", "settled", 1),
+    ("Never switched %", "never_switched", 1),
+)
+
+SMOOTHNESS_NOTE = (
+    "Means over episodes with 95 % percentile-bootstrap intervals. Jerk: the robot's planar "
+    "velocity's second difference / dt^2. Control rate: mean over steps of |u_k - u_(k-1)| / "
+    "dt of the controls the controller commanded (before control noise), the norm over the "
+    "velocity controls (holonomic u_x, u_y; unicycle v) and the turn-rate control (holonomic "
+    "u_theta; unicycle and Dubins omega) apart; '-' where the agent has none (the Dubins car's "
+    "speed is fixed). Turn sign changes: how often the turn rate of the robot's path (the rate "
+    f"of its direction of travel) changes sign, steps below {STOP_SPEED:g} m/s and turns below "
+    f"{TURN_DEADBAND:g} rad/s skipped, per metre travelled and per second."
+)
+COMMIT_NOTE = (
+    "Blocked (one obstacle between start and goal): the robot's side is the sign of (goal - "
+    f"start) x (robot - obstacle centre), none within {SIDE_DEADBAND:g} m of the line, counted "
+    "until the robot draws level with the centre. Commit time: from the start until the side "
+    "it keeps (mean over the episodes that took a side); committed: commit time <= "
+    f"{COMMIT_WITHIN:g} s; settled: the side kept within {COMMIT_WITHIN:g} s of first "
+    "taking one; never switched: took a side and kept it. Rates in % of the episodes with "
+    "95 % Wilson intervals; an episode that never took a side counts as none."
+)
+REPLAY_NOTE = (
+    "Per scene of the recorded people the robot replaced (the task replay), and over all "
+    "scenes. Rates in % with 95 % Wilson intervals. Path / human: the robot's path over the "
+    "replaced person's, both sampled at the recording's frame period; time / human: its time "
+    "to the goal over theirs; each the mean of the per-episode ratios over the successful "
+    "episodes, 95 % bootstrap interval. Frozen: timeouts that ended within "
+    f"{FREEZE_MARGIN:g} m of the goal region (the final position within "
+    f"{GOAL_TOLERANCE + FREEZE_MARGIN:g} m of the goal); elsewhere: the other timeouts; in % "
+    "of the episodes ('-': not recorded by an older database)."
 )
 
 SCORE_NOTE = (
@@ -180,6 +236,52 @@ def metrics_table(rows: list[dict], exp: Experiment) -> str:
             continue
         cells = [_interval(s[key], digits) for _, key, digits in METRICS_COLUMNS]
         lines.append(f"| {noise} | {label} | {s['episodes']} | {' | '.join(cells)} |")
+    return "\n".join(lines)
+
+
+def smoothness_table(rows: list[dict], exp: Experiment) -> str:
+    """Smoothness per (noise, row) with 95 % intervals (see `smoothness`), with the task
+    blocked's commitment columns where episodes record them; '' where no episode records the
+    control rate or indecision (an older database)."""
+    stats = smoothness(rows)
+    if not any(s[key] is not None for s in stats.values() for _, key, _ in SMOOTHNESS_COLUMNS[1:]):
+        return ""
+    columns = SMOOTHNESS_COLUMNS
+    if any(s["blocked"] for s in stats.values()):
+        columns += COMMIT_COLUMNS
+    head = "| Noise | Row | Episodes | " + " | ".join(h for h, _, _ in columns) + " |"
+    lines = [head, "|---|---|---:|" + "---|" * len(columns)]
+    for noise, label in groups(rows, exp):
+        s = stats.get((noise, label))
+        if s is None:  # errors only
+            continue
+        cells = [_interval(s[key], digits) for _, key, digits in columns]
+        lines.append(f"| {noise} | {label} | {s['episodes']} | {' | '.join(cells)} |")
+    return "\n".join(lines)
+
+
+def replay_table(rows: list[dict], exp: Experiment) -> str:
+    """Replays per (noise, row, scene) (see `replay_scenes`): outcomes, path and time against
+    the replaced person's, frozen timeouts; '' without replays."""
+    stats = replay_scenes(rows)
+    if not stats:
+        return ""
+    head = (
+        "| Noise | Row | Scene | Episodes | Success % | Collisions % | Timeouts % | "
+        "Path / human | Time / human | Frozen near goal % | Timeouts elsewhere % |"
+    )
+    lines = [head, "|---|---|---|---:|---|---|---|---|---|---|---|"]
+    for noise, label in groups(rows, exp):
+        scenes = scene_order(sc for n, c, sc in stats if (n, c) == (noise, label))
+        if len(scenes) == 2:  # one scene: its "all" repeats it
+            scenes = scenes[:1]
+        for scene in scenes:
+            s = stats[(noise, label, scene)]
+            cells = [_interval(s[k], 1) for k in ("success", "collision", "timeout")]
+            cells += [_interval(s[k], 2) for k in ("path_ratio", "time_ratio")]
+            cells += [_interval(s[k], 1) for k in ("frozen", "elsewhere")]
+            name = f"**{scene}**" if scene == ALL_SCENES else scene
+            lines.append(f"| {noise} | {label} | {name} | {s['episodes']} | {' | '.join(cells)} |")
     return "\n".join(lines)
 
 
@@ -519,6 +621,8 @@ def write_report(db_paths, out_dir: str | Path, plots: bool = True, gallery: int
     tables = {
         "scores": score_table(data.rows, data.exp),
         "metrics": metrics_table(data.rows, data.exp),
+        "smoothness": smoothness_table(data.rows, data.exp),
+        "replay": replay_table(data.rows, data.exp),
         "diagnostics": diagnostics_table(data.rows, data.exp),
     }
     text = _terminal(data, tables, warning, prov_line)
@@ -561,6 +665,8 @@ def _terminal(data: Loaded, tables: dict, warning: str, prov_line: str) -> str:
         tables["metrics"],
         tables["scores"],
         tables["diagnostics"],
+        tables["smoothness"],
+        tables["replay"],
         errors_line,
         prov_line,
     )
@@ -583,7 +689,8 @@ def _markdown(data: Loaded, tables: dict, warning: str, links: dict | None) -> l
     rows, exp = data.rows, data.exp
     sources = ", ".join(f"`{p}`" for p in data.paths)
     several = len(data.paths) > 1
-    scores = tables["scores"]
+    scores, smooth, replays = tables["scores"], tables["smoothness"], tables["replay"]
+    commit = [COMMIT_NOTE, ""] if COMMIT_COLUMNS[0][0] in smooth else []
     return [
         f"# dcmppi report: {exp.name} ({exp.task})",
         "",
@@ -600,6 +707,8 @@ def _markdown(data: Loaded, tables: dict, warning: str, links: dict | None) -> l
         "",
         METRICS_NOTE,
         "",
+        *(["## Smoothness", "", smooth, "", SMOOTHNESS_NOTE, "", *commit] if smooth else []),
+        *(["## Recorded people, per scene", "", replays, "", REPLAY_NOTE, ""] if replays else []),
         *(["## Navigation score", "", scores, "", SCORE_NOTE, ""] if scores else []),
         "## Controller diagnostics",
         "",

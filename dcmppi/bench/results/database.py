@@ -35,7 +35,7 @@ import tempfile
 import time
 from pathlib import Path
 
-SCHEMA_VERSION = 5
+SCHEMA_VERSION = 6
 # the crowd-navigation field's metrics (dcmppi.bench.episodes.metrics.FieldMetrics)
 FIELD_METRICS = (
     "success",
@@ -49,7 +49,21 @@ FIELD_METRICS = (
     "ped_speed_loss",
 )
 REPLAY = ("run_id", "traceback", "final_x", "final_y", "final_theta", "trace")
-ADDED = {3: ("nav_score",), 4: FIELD_METRICS, 5: REPLAY}  # columns each schema version added
+# smoothness and indecision (dcmppi.bench.episodes.metrics), the task blocked's side commitment
+SMOOTHNESS = (
+    "control_rate_linear",
+    "control_rate_angular",
+    "turn_sign_changes",
+    "indecision_per_m",
+    "indecision_per_s",
+    "commit_time",
+    "commit_delay",
+    "side_switches",
+)
+# a replay's recorded person (the task replay: dcmppi.bench.episodes.runner.Episode._human)
+HUMAN = ("scene", "recording", "person", "human_time", "human_path_length", "frame_path_length")
+# columns each schema version added
+ADDED = {3: ("nav_score",), 4: FIELD_METRICS, 5: REPLAY, 6: ("goal_distance", *SMOOTHNESS, *HUMAN)}
 
 COLUMNS = (
     # key
@@ -77,11 +91,28 @@ COLUMNS = (
     ("path_length", "REAL"),
     ("spl", "REAL"),  # success weighted by path length
     ("jerk_mean", "REAL"),  # the robot's mean jerk [m/s^3]
+    # smoothness and indecision (NULL before schema 6)
+    ("control_rate_linear", "REAL"),  # mean |du|/dt of the velocity controls [m/s^2]
+    ("control_rate_angular", "REAL"),  # mean |du|/dt of the turn-rate control [rad/s^2]
+    ("turn_sign_changes", "INTEGER"),  # sign changes of the path's turn rate
+    ("indecision_per_m", "REAL"),  # turn_sign_changes per metre travelled
+    ("indecision_per_s", "REAL"),  # turn_sign_changes per second
+    # the task blocked's side of the obstacle (NULL in other tasks)
+    ("commit_time", "REAL"),  # [s] from the start until the side it keeps
+    ("commit_delay", "REAL"),  # [s] from the first side taken until the side it keeps
+    ("side_switches", "INTEGER"),  # changes of side after the first
     # pedestrians (moving obstacles); NULL in worlds without them
     ("min_ped_gap", "REAL"),  # minimum surface distance [m]
     ("personal_space_share", "REAL"),  # share of control instants with one within 0.5 m
     ("min_ttc", "REAL"),  # minimum time-to-collision [s], Inf: never on a collision course
     ("ped_speed_loss", "REAL"),  # mean 1 - speed / preferred speed within 2 m (reactive crowds)
+    # the recorded person the robot replaces (the task replay; NULL in other tasks)
+    ("scene", "TEXT"),  # the test scene (eth, hotel, univ, zara1, zara2) or the recording
+    ("recording", "TEXT"),  # the recording's file name
+    ("person", "INTEGER"),  # the person's id in the recording
+    ("human_time", "REAL"),  # [s] the person's time to the goal region
+    ("human_path_length", "REAL"),  # [m] their path, sampled at the recording's frame period
+    ("frame_path_length", "REAL"),  # [m] the robot's path, sampled alike
     ("min_clearance", "REAL"),
     ("ctrl_ms_mean", "REAL"),
     ("ctrl_ms_p95", "REAL"),
@@ -96,6 +127,7 @@ COLUMNS = (
     ("final_x", "REAL"),
     ("final_y", "REAL"),
     ("final_theta", "REAL"),
+    ("goal_distance", "REAL"),  # [m] from the final position to the goal (NULL before schema 6)
     ("trace", "BLOB"),  # zlib of float32 (steps + 1, 3): x, y, theta at each control instant
     ("params", "TEXT NOT NULL"),  # JSON of the episode's full parameter set
 )

@@ -1,6 +1,8 @@
 """Statistics of episode rows: failure rates with Wilson intervals, paired McNemar tests,
-percentile-bootstrap intervals of mean navigation scores (BARN), alone and paired, and the
-crowd-navigation field's metrics with their intervals.
+percentile-bootstrap intervals of mean navigation scores (BARN), alone and paired, the
+crowd-navigation field's metrics with their intervals, smoothness and indecision (the task
+blocked's commitment to a side too), and replays of recorded people per scene against the
+people the robot replaced.
 
 Shared by the report's tables and its plots.
 """
@@ -13,6 +15,7 @@ from collections import defaultdict
 import numpy as np
 
 from dcmppi.tasks import NOISE_PROFILES
+from dcmppi.tasks.world_base import GOAL_TOLERANCE
 
 Z95 = 1.959963984540054
 BOOTSTRAP = 10_000  # resamples of a bootstrap interval
@@ -160,6 +163,113 @@ def field_metrics(rows: list[dict]) -> dict[tuple[str, str], dict]:
         s["min_ttc"] = (float(np.median(ttc)), *bootstrap_median(ttc), len(ttc)) if ttc else None
         out[key] = s
     return out
+
+
+# Smoothness per episode that the report averages over every episode with a value.
+SMOOTHNESS = (
+    "jerk_mean",
+    "control_rate_linear",
+    "control_rate_angular",
+    "indecision_per_m",
+    "indecision_per_s",
+)
+COMMIT_WITHIN = 1.0  # [s] the task blocked: commitment to a side this soon counts as prompt
+
+
+def smoothness(rows: list[dict]) -> dict[tuple[str, str], dict]:
+    """Smoothness and indecision per (noise, row label) over its finished episodes: `episodes`;
+    per column of SMOOTHNESS (mean, lo, hi, n) with the bootstrap interval of the mean over the
+    episodes with a value (None: none has). Where episodes record a side of the obstacle (the
+    task blocked: side_switches not NULL; `blocked` counts them, else 0): commit_time (mean,
+    lo, hi, n) over the episodes that took a side; and (pct, lo, hi) with Wilson intervals over
+    the blocked episodes: committed (commit_time <= COMMIT_WITHIN), settled (commit_delay <=
+    COMMIT_WITHIN: it kept a side within that long of first taking one), never_switched (took
+    a side and never changed it). An episode that never took a side counts as none of these."""
+    groups = defaultdict(list)
+    for r in rows:
+        if r["status"] == "ok":
+            groups[(r["noise"], r["label"])].append(r)
+    out = {}
+    for key, ok in groups.items():
+        s = {"episodes": len(ok)}
+        for column in SMOOTHNESS:
+            xs = [r[column] for r in ok if r.get(column) is not None]
+            s[column] = (mean(xs), *bootstrap_mean(xs), len(xs)) if xs else None
+        sided = [r for r in ok if r.get("side_switches") is not None]
+        took = [r for r in sided if r.get("commit_time") is not None]
+        n = len(sided)
+        s["blocked"] = n
+        times = [r["commit_time"] for r in took]
+        s["commit_time"] = (mean(times), *bootstrap_mean(times), len(times)) if times else None
+        s["committed"] = (
+            _rate(sum(r["commit_time"] <= COMMIT_WITHIN for r in took), n) if n else None
+        )
+        s["settled"] = (
+            _rate(sum(r["commit_delay"] <= COMMIT_WITHIN for r in took), n) if n else None
+        )
+        s["never_switched"] = _rate(sum(r["side_switches"] == 0 for r in took), n) if n else None
+        out[key] = s
+    return out
+
+
+FREEZE_MARGIN = 1.0  # [m] a timeout within this of the goal region froze near the goal
+SCENE_ORDER = ("eth", "hotel", "univ", "zara1", "zara2")  # the test scenes, in this order
+ALL_SCENES = "all"
+
+
+def replay_scenes(rows: list[dict]) -> dict[tuple[str, str, str], dict]:
+    """Replays of recorded people per (noise, row label, scene) over the finished episodes with
+    a scene (the task replay), and per (noise, row label, ALL_SCENES) over all of them:
+    `episodes`; success, collision and timeout rates (pct, lo, hi) with Wilson intervals;
+    path_ratio and time_ratio (mean, lo, hi, n) with bootstrap intervals, over the successful
+    episodes, of frame_path_length / human_path_length (both paths sampled at the recording's
+    frame period) and time_to_goal / human_time; frozen and elsewhere (pct, lo, hi) of the
+    episodes: timeouts that ended within GOAL_TOLERANCE + FREEZE_MARGIN of the goal's centre
+    (goal_distance), and the other timeouts (None where goal_distance is not recorded). {}
+    without replays."""
+    groups = defaultdict(list)
+    for r in rows:
+        if r["status"] == "ok" and r.get("scene") is not None:
+            groups[(r["noise"], r["label"], r["scene"])].append(r)
+            groups[(r["noise"], r["label"], ALL_SCENES)].append(r)
+    out = {}
+    for key, ok in groups.items():
+        n = len(ok)
+        goals = [r for r in ok if r["outcome"] == "goal"]
+        paths = [
+            r["frame_path_length"] / r["human_path_length"]
+            for r in goals
+            if r["frame_path_length"] is not None and r["human_path_length"]
+        ]
+        times = [
+            r["time_to_goal"] / r["human_time"]
+            for r in goals
+            if r["time_to_goal"] is not None and r["human_time"]
+        ]
+        timeouts = [r for r in ok if r["outcome"] == "time_limit"]
+        known = all(r.get("goal_distance") is not None for r in timeouts)
+        near = (
+            sum(r["goal_distance"] <= GOAL_TOLERANCE + FREEZE_MARGIN for r in timeouts)
+            if known
+            else 0
+        )
+        out[key] = {
+            "episodes": n,
+            "success": _rate(len(goals), n),
+            "collision": _rate(sum(bool(r["collision"]) for r in ok), n),
+            "timeout": _rate(len(timeouts), n),
+            "path_ratio": (mean(paths), *bootstrap_mean(paths), len(paths)) if paths else None,
+            "time_ratio": (mean(times), *bootstrap_mean(times), len(times)) if times else None,
+            "frozen": _rate(near, n) if known else None,
+            "elsewhere": _rate(len(timeouts) - near, n) if known else None,
+        }
+    return out
+
+
+def scene_order(scenes) -> list[str]:
+    """`scenes` with the test scenes first in SCENE_ORDER, others by name, ALL_SCENES last."""
+    order = {s: i for i, s in enumerate(SCENE_ORDER)}
+    return sorted(set(scenes), key=lambda s: (s == ALL_SCENES, order.get(s, len(order)), s))
 
 
 def _rate(k: int, n: int) -> tuple[float, float, float]:

@@ -1,0 +1,153 @@
+"""The smoothness, commitment and per-scene tables of a report, and the schema 6 columns of an
+older database: read as NULL, added when it is opened to write, its rows kept."""
+
+import math
+import os
+import pathlib
+import re
+import sqlite3
+
+import pytest
+
+from dcmppi.bench.episodes.runner import EpisodeSpec, run_episode
+from dcmppi.bench.experiments import load_experiment
+from dcmppi.bench.reports.report import replay_table, smoothness_table, write_report
+from dcmppi.bench.results.database import ADDED, SCHEMA_VERSION, ResultsDB
+from dcmppi.bench.results.stats import replay_scenes, smoothness
+from dcmppi.bench.runs.execution import run_experiment
+from dcmppi.tasks import recordings
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+SMALL = {"K": 64, "N": 20}
+
+
+def crowds():
+    """The ETH/UCY folder ($DCMPPI_CROWDS, else ../shared/crowds), or skip saying why."""
+    folder = pathlib.Path(os.environ.get(recordings.CROWDS_ENV) or ROOT.parent / "shared/crowds")
+    if not (folder / "biwi_eth.txt").is_file():
+        pytest.skip(f"the ETH/UCY files are absent ({folder}; set {recordings.CROWDS_ENV})")
+    return folder
+
+
+def _row(label, i, **values):
+    base = dict.fromkeys(ADDED[SCHEMA_VERSION])
+    return {
+        "noise": "none",
+        "label": label,
+        "env_index": i,
+        "status": "ok",
+        "outcome": "goal",
+        "collision": 0,
+        "time_to_goal": 10.0,
+        "jerk_mean": 100.0,
+        **base,
+        **values,
+    }
+
+
+def test_the_smoothness_table_shows_the_rates_and_blocked_commitment():
+    exp = load_experiment("static").select(3, ("mppi",), ("none",))
+    rows = [
+        _row("mppi", i, control_rate_angular=a, indecision_per_m=0.5, indecision_per_s=0.4)
+        for i, a in enumerate((1.0, 2.0, 3.0))
+    ]
+    text = smoothness_table(rows, exp)
+    line = text.splitlines()[2]
+    assert line.startswith("| none | mppi | 3 | 100.0 [100.0, 100.0] | - | 2.00 [")
+    assert "Commit" not in text
+    sided = [(0.5, 0.0, 0), (2.0, 1.5, 1), (None, None, 0)]  # prompt; hesitant; never sided
+    for r, (t, d, k) in zip(rows, sided, strict=True):
+        r.update(commit_time=t, commit_delay=d, side_switches=k)
+    s = smoothness(rows)[("none", "mppi")]
+    assert s["blocked"] == 3 and s["commit_time"][0] == pytest.approx(1.25)
+    assert s["committed"][0] == pytest.approx(100 / 3)
+    assert s["settled"][0] == pytest.approx(100 / 3)
+    assert s["never_switched"][0] == pytest.approx(100 / 3)
+    assert "| Commit time [s] |" in smoothness_table(rows, exp)
+    old = [{**r, **dict.fromkeys(ADDED[SCHEMA_VERSION])} for r in rows]
+    assert smoothness_table(old, exp) == ""  # an older database: no table
+
+
+def test_replays_per_scene_ratios_and_freezing():
+    rows = [
+        _row("dc", 0, scene="eth", frame_path_length=12.0, human_path_length=10.0,
+             time_to_goal=12.0, human_time=8.0),
+        _row("dc", 1, scene="eth", frame_path_length=10.0, human_path_length=10.0,
+             time_to_goal=8.0, human_time=8.0),
+        _row("dc", 2, scene="univ", outcome="time_limit", time_to_goal=None, goal_distance=1.5),
+        _row("dc", 3, scene="univ", outcome="time_limit", time_to_goal=None, goal_distance=5.0),
+        _row("dc", 4, scene="univ", outcome="collision", collision=1, time_to_goal=None),
+    ]  # fmt: skip
+    stats = replay_scenes(rows)
+    eth, univ, every = (stats[("none", "dc", s)] for s in ("eth", "univ", "all"))
+    assert eth["path_ratio"][0] == pytest.approx(1.1)  # (1.2 + 1.0) / 2
+    assert eth["time_ratio"][0] == pytest.approx(1.25)  # (1.5 + 1.0) / 2
+    assert univ["path_ratio"] is None and univ["timeout"][0] == pytest.approx(200 / 3)
+    assert univ["frozen"][0] == pytest.approx(100 / 3)
+    assert univ["elsewhere"][0] == pytest.approx(100 / 3)
+    assert every["episodes"] == 5 and every["collision"][0] == pytest.approx(20)
+    exp = load_experiment("eth-ucy").select(5, ("dc",), ("none",))
+    lines = replay_table(rows, exp).splitlines()
+    assert [line.split(" | ")[2] for line in lines[2:]] == ["eth", "univ", "**all**"]
+    assert replay_scenes([_row("dc", 0)]) == {} and replay_table([_row("dc", 0)], exp) == ""
+
+
+def _old_database(tmp_path):
+    """A complete static database, then made as schema 5 wrote it."""
+    exp = load_experiment("static").select(2, ("mppi",), ("none",))
+    path = tmp_path / "old.db"
+    db = ResultsDB(path, exp.config())
+    db.begin_run(exp.to_dict())
+    for i in range(2):
+        spec = EpisodeSpec("blocked", "mppi", "none", i, {}, SMALL)
+        db.record(("none", "mppi", i), spec, run_episode(spec))
+    db.end_run()
+    db.close()
+    with sqlite3.connect(path) as c:
+        before = c.execute("SELECT env_index, outcome, path_length, jerk_mean FROM episodes")
+        before = before.fetchall()
+        for name in ADDED[6]:
+            c.execute(f"ALTER TABLE episodes DROP COLUMN {name}")
+        c.execute("UPDATE meta SET value = '5' WHERE key = 'schema'")
+    return exp, path, before
+
+
+def test_a_schema_5_database_reports_and_upgrades_keeping_its_rows(tmp_path):
+    exp, path, before = _old_database(tmp_path)
+    text = write_report(path, tmp_path / "out", plots=False)  # read-only: nothing converted
+    assert not re.search(r"\bnan\b", text) and "Turn sign changes" not in text
+    with sqlite3.connect(path) as c:
+        assert c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone() == ("5",)
+    old = ResultsDB(path)
+    assert all(r["commit_time"] is None and r["scene"] is None for r in old.rows())
+    old.close()
+    ResultsDB(path, exp.config()).close()  # opening to write adds the columns
+    with sqlite3.connect(path) as c:
+        assert c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone() == ("6",)
+        columns = {r[1] for r in c.execute("PRAGMA table_info(episodes)")}
+        assert columns >= set(ADDED[6])
+        kept = c.execute("SELECT env_index, outcome, path_length, jerk_mean FROM episodes")
+        assert kept.fetchall() == before
+    assert SCHEMA_VERSION == 6
+
+
+def test_a_tiny_replay_run_reports_its_scenes(tmp_path):
+    folder = crowds()
+    exp = load_experiment("eth-ucy").select(3, ("dc-cv",), ("none",))
+    exp = exp.with_params({"path": str(folder)}, SMALL)
+    db = ResultsDB(tmp_path / "r.db", exp.config())
+    run_experiment(exp, db, progress=False)
+    rows = db.rows()
+    db.close()
+    text = write_report(tmp_path / "r.db", tmp_path / "out", plots=False)
+    md = (tmp_path / "out" / "report.md").read_text()
+    assert [r["scene"] for r in rows] == ["eth", "hotel", "univ"]  # environment i: scene i % 5
+    assert [r["recording"] for r in rows[:2]] == ["biwi_eth", "biwi_hotel"]
+    assert rows[2]["recording"] in recordings.SCENES["univ"]
+    for r in rows:
+        assert r["human_time"] > 0 and r["human_path_length"] >= 5.0 and r["person"] >= 0
+        assert 0 < r["frame_path_length"] <= r["path_length"] + 1e-9
+    scenes = [line.split(" | ")[2] for line in replay_table(rows, exp).splitlines()[2:]]
+    assert scenes == ["eth", "hotel", "univ", "**all**"]
+    assert "## Recorded people, per scene" in md and "| none | dc-cv | univ | 1 |" in text
+    assert "## Smoothness" in md and not math.isnan(rows[0]["indecision_per_s"])

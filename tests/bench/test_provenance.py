@@ -282,3 +282,36 @@ def test_code_version_names_this_checkout():
     code, commit, dirty = provenance.code_version()
     assert len(code) == 64
     assert commit is None or (len(commit) == 40 and isinstance(dirty, bool))
+
+
+def test_a_learned_predictors_model_file_is_hashed_and_a_missing_one_named(tmp_path):
+    import types
+
+    import numpy as np
+
+    from dcmppi.control.predictors import learned
+
+    t = 0.4 * np.arange(20)
+    walks = np.stack([np.column_stack([v * t, np.full(20, y)]) for v, y in [(1, 0), (1.5, 2)]])
+    windows = types.SimpleNamespace(
+        observed=walks[:, :8],
+        future=walks[:, 8:],
+        neighbours=(np.zeros((0, 8, 2)),) * 2,
+        source=np.arange(2),
+        period=0.4,
+    )
+    model = tmp_path / "model.npz"
+    learned.fit(windows, seed=0).save(model)
+    exp = load_experiment("dynamic").select(1, ("dc",), ("none",))
+    params = {"prediction": "learned", "model": str(model), "K": 64}
+    spec = EpisodeSpec("crowd", "dc", "none", 0, {}, params)
+    prov = provenance.collect(exp, [(("none", "dc", 0), spec)])
+    entry = prov["files"]["row dc model"]
+    assert entry == {"path": str(model.resolve()), "sha256": learned.sha256(model)}
+    learned.fit(windows, seed=0, neighbours=2).save(model)  # another model, same path
+    again = provenance.collect(exp, [(("none", "dc", 0), spec)])
+    assert any(d.startswith("row dc model (") for d in provenance.differences(prov, again))
+    missing = EpisodeSpec("crowd", "dc", "none", 0, {}, {**params, "model": "nowhere.npz"})
+    with pytest.raises(ValueError, match=r"row 'dc': prediction 'learned' model=nowhere.npz: no"):
+        provenance.collect(exp, [(("none", "dc", 0), missing)])
+    assert provenance.model_files("dc", EpisodeSpec("crowd", "dc")) == {}

@@ -6,10 +6,11 @@ under other conditions (`differences`): another dcmppi version or code (the sha2
 package's source, so a commit that touches only documentation is no difference), another
 resolved task or controller parameter (the classes' defaults included), another sha256 of an
 input file (layout CSV/JSON, the BARN file of $DCMPPI_BARN, the module of a user's
-package.module:ClassName controller or predictor). Library versions, CPU and host are recorded
-and shown, never compared (shards of one benchmark run on different machines). So is the
-arithmetic the CPU gives numpy and the BLAS (`kernels`): machines of one model name may differ
-in it, and with it in the last bits of every plan, so in the episodes' numbers.
+package.module:ClassName controller or predictor, a learned predictor's model file). Library
+versions, CPU and host are recorded and shown, never compared (shards of one benchmark run on
+different machines). So is the arithmetic the CPU gives numpy and the BLAS (`kernels`):
+machines of one model name may differ in it, and with it in the last bits of every plan, so
+in the episodes' numbers.
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ def collect(exp, specs) -> dict:
     files = {}
     rows = {}
     for label, spec in first.items():
+        files.update(model_files(label, spec))  # before the controller: a missing file
         rows[label] = {"controller": spec.controller, "params": controller_params(spec)}
         files.update(user_modules(spec))
     task = {"name": exp.task, "params": {}}
@@ -220,6 +222,25 @@ def task_files(spec) -> dict:
         if Path(barn).is_file():
             out[f"${BARN_ENV}"] = file_entry(barn)
     return out
+
+
+def model_files(label: str, spec) -> dict:
+    """{"row LABEL model": {"path", "sha256"}} of the model file a row's learned predictor reads
+    (prediction "learned", parameter `model`; the row's own parameters over the shared ones);
+    {} for other rows. A ValueError names a model file that does not exist."""
+    params = {**spec.shared_params, **spec.controller_params}
+    model = params.get("model")
+    if params.get("prediction") != "learned" or model is None:
+        return {}
+    path = Path(str(model))
+    if not path.is_file():
+        raise ValueError(
+            f"row {label!r}: prediction 'learned' model={model}: no such file; train one with "
+            "`dcmppi predictor train --out MODEL` or fix the path"
+        )
+    from dcmppi.control.predictors.learned import sha256
+
+    return {f"row {label} model": {"path": str(path.resolve()), "sha256": sha256(path)}}
 
 
 def user_modules(spec) -> dict:

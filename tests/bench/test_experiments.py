@@ -34,9 +34,12 @@ def test_shipped_experiments_hold_the_papers_setup():
         "beta": 100.0,
         "Sigma": [1.0, 1.0, 0.1],
     }
+    smooth = ("mppi+smooth", "clustered+smooth", "mppi+margin+smooth", "clustered+margin+smooth")
     assert dynamic.labels == (
-        "mppi", "clustered", "mppi+margin", "clustered+margin", "tube", "dc", *classical
+        "mppi", "clustered", "mppi+margin", "clustered+margin", "tube", "dc", *classical,
+        *smooth, "tube+smooth", "dc+smooth",
     )  # fmt: skip
+    assert dynamic.row("tube+smooth").params == {"preset": "smooth"}
     assert dynamic.row("clustered+margin").controller == "clustered"
     assert dynamic.row("clustered+margin").params == {"obstacle_margin": 0.5}
     assert (dynamic.episodes, dynamic.reference, dynamic.noises) == (300, "dc", ("none",))
@@ -63,6 +66,9 @@ def test_shipped_experiments_hold_the_papers_setup():
         assert walking.task_params["robot_visible"] is visible
         assert walking.controller_params == dynamic.controller_params
         oracle = ("mppi-oracle", "dc-oracle", "dc-learned") if name == "square-orca" else ()
+        walking_smooth = (
+            "mppi+smooth", "mppi+margin+smooth", "clustered+smooth", "dc+smooth", "dc-cv+smooth"
+        )  # fmt: skip
         assert walking.labels == (
             "mppi",
             "mppi+margin",
@@ -73,10 +79,12 @@ def test_shipped_experiments_hold_the_papers_setup():
             "dc-social-blind",
             *oracle,
             *classical,
+            *(() if name == "corridor-visible" else walking_smooth),
         )
         assert walking.row("dc-social").params == {"prediction": "social"}
     square = load_experiment("square-orca")
     assert square.row("dc-oracle").params == {"prediction": "given"}
+    assert square.row("dc-cv+smooth").params == {"prediction": "cv", "preset": "smooth"}
     mismatch = load_experiment("corridor-mismatch")
     assert mismatch.row("dc-ekf-walk").params["process_std"] == [0.01, 0.01, 0.3, 0.5, 1.0]
     assert mismatch.labels == (

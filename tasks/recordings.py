@@ -131,7 +131,7 @@ def crowds_folder(folder=None) -> pathlib.Path:
     Raises:
       ValueError: one line naming both ways to give it, when neither names a folder.
     """
-    fix = f"pass folder=DIR (task parameter path=DIR) or set {CROWDS_ENV}=DIR"
+    fix = f"set {CROWDS_ENV}=DIR, the folder of the eight files, or pass path=DIR"
     given = folder if folder is not None else os.environ.get(CROWDS_ENV)
     if not given:
         raise ValueError(f"the ETH/UCY recordings are not part of dcmppi: {fix}")

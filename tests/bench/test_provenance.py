@@ -315,3 +315,16 @@ def test_a_learned_predictors_model_file_is_hashed_and_a_missing_one_named(tmp_p
     with pytest.raises(ValueError, match=r"row 'dc': prediction 'learned' model=nowhere.npz: no"):
         provenance.collect(exp, [(("none", "dc", 0), missing)])
     assert provenance.model_files("dc", EpisodeSpec("crowd", "dc")) == {}
+    other = tmp_path / "other.npz"
+    learned.fit(windows, seed=1).save(other)
+    two = [
+        (("none", "dc", i), EpisodeSpec("crowd", "dc", "none", i, {}, {**params, "model": str(m)}))
+        for i, m in enumerate([model, other, model])
+    ]
+    prov = provenance.collect(exp, two)  # a recipe's model per environment: every file
+    assert {k for k in prov["files"] if "model" in k} == {
+        "row dc model model.npz",
+        "row dc model other.npz",
+    }
+    assert prov["files"]["row dc model other.npz"]["sha256"] == learned.sha256(other)
+    assert prov["rows"]["dc"]["params"]["model"].startswith("per environment")

@@ -242,7 +242,7 @@ def test_bad_scenes_and_folders_are_one_line_errors(tmp_path, monkeypatch):
     monkeypatch.delenv(recordings.CROWDS_ENV, raising=False)
     cases = (
         ({"scene": "mall"}, r"unknown scene 'mall'; scenes: eth, hotel"),
-        ({"scene": "eth"}, r"not part of dcmppi: pass folder=DIR \(task parameter path=DIR\)"),
+        ({"scene": "eth"}, r"not part of dcmppi: set DCMPPI_CROWDS=DIR, .* path=DIR"),
         ({"scene": "eth", "path": str(tmp_path / "none")}, r"no such folder"),
         ({"scene": str(tmp_path / "none.txt")}, r"none.txt: no such recording"),
         ({"scene": scene_file(tmp_path, WALK, CROSS), "episode": 5}, r"has 2 episodes"),

@@ -40,15 +40,23 @@ def collect(exp, specs) -> dict:
     {"controller", "params"}}, "files": {what: {"path", "sha256"}}, "libraries": {name:
     version}, "cpu", "kernels", "cores", "host"}. Builds each row's controller once (as
     check_specs does)."""
-    first = {}
+    first, models = {}, {}
     for (_, label, _), spec in specs:
         first.setdefault(label, spec)
+        models.setdefault(label, {}).setdefault(_model(spec), spec)
     code, commit, dirty = code_version()
     files = {}
     rows = {}
     for label, spec in first.items():
-        files.update(model_files(label, spec))  # before the controller: a missing file
+        per_environment = len(models[label]) > 1  # a recipe: one model per scene, say
+        for each in models[label].values():  # before the controller: a missing file
+            found = model_files(label, each)
+            if per_environment:
+                found = {f"{k} {Path(v['path']).name}": v for k, v in found.items()}
+            files.update(found)
         rows[label] = {"controller": spec.controller, "params": controller_params(spec)}
+        if per_environment:
+            rows[label]["params"]["model"] = "per environment (files: row LABEL model NAME)"
         files.update(user_modules(spec))
     task = {"name": exp.task, "params": {}}
     if first:
@@ -224,10 +232,17 @@ def task_files(spec) -> dict:
     return out
 
 
+def _model(spec):
+    """The `model` parameter `spec`'s controller gets (None if none)."""
+    model = {**spec.shared_params, **spec.controller_params}.get("model")
+    return None if model is None else str(model)
+
+
 def model_files(label: str, spec) -> dict:
     """{"row LABEL model": {"path", "sha256"}} of the model file a row's learned predictor reads
     (prediction "learned", parameter `model`; the row's own parameters over the shared ones);
-    {} for other rows. A ValueError names a model file that does not exist."""
+    {} for other rows. A ValueError names a model file that does not exist. `collect` keys a
+    row whose environments use several files (a recipe per scene) "row LABEL model NAME"."""
     params = {**spec.shared_params, **spec.controller_params}
     model = params.get("model")
     if params.get("prediction") != "learned" or model is None:

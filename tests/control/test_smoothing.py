@@ -132,7 +132,7 @@ def test_smooth_preset_sets_its_options_and_explicit_values_win():
         smooth["filter_window"],
         smooth["filter_order"],
     )
-    assert ctrl.best_sample_cluster is smooth["best_sample_cluster"] is False
+    assert ctrl.best_sample_cluster is smooth["best_sample_cluster"]
     assert ctrl.hysteresis == smooth["hysteresis"] > 0
     params = ctrl.params
     assert params["preset"] == "smooth" and params["change_cost"] == ctrl.change_cost.tolist()
@@ -140,9 +140,10 @@ def test_smooth_preset_sets_its_options_and_explicit_values_win():
         "dc", agent="holonomic", preset="smooth", lambda_=1.0, filter_window=0, hysteresis=0.0
     )
     assert (own.lambda_, own.filter_window, own.hysteresis) == (1.0, 0, 0.0)
+    assert dcmppi.make_controller("dc", preset="smooth", change_cost=0.5).change_cost == [0.5]
     for name in ("mppi", "tube"):  # the planners without clusters take the rest
         ctrl = dcmppi.make_controller(name, agent="holonomic", preset="smooth", seed=0, K=64)
-        assert ctrl.filter_window == 9 and ctrl.change_cost.any()
+        assert ctrl.filter_window == 9 and ctrl.lambda_ == "auto"
         list(head_on(ctrl, 3))
 
 

@@ -567,10 +567,21 @@ class Replay(Navigation):
         return self._motion
 
 
+def episode_index(scene, recording: str, person: int, path=None) -> int:
+    """The index among `scene`'s episodes of the one that replaces person `person` of the
+    recording named `recording` (what a results database stores); a ValueError if none does."""
+    sc = load_scene(scene_files(scene, path))
+    for k, (r, i) in enumerate(sc.episodes):
+        if sc.recordings[r].name == recording and sc.recordings[r].tracks[i].id == person:
+            return k
+    raise ValueError(f"scene {scene}: no episode replaces person {person} of {recording}")
+
+
 def self_collisions(scene, path=None, episodes=None, radius=PEDESTRIAN_RADIUS,
                     robot_radius=PEDESTRIAN_RADIUS, dt=defaults.DT) -> np.ndarray:  # fmt: skip
-    """Whether each episode of `scene` (its first `episodes`; None: all) has its replaced person
-    "collide" when replayed along their own track under the task's rule, (E,) bool.
+    """Whether each episode of `scene` (its first `episodes`, or the episodes of the indices
+    `episodes` lists; None: all) has its replaced person "collide" when replayed along their
+    own track under the task's rule, (E,) bool.
 
     The robot's disc (robot_radius) follows the person's track; the others are the episode's
     RecordedPeople (held back where they would appear on it); a collision is two centres
@@ -581,7 +592,12 @@ def self_collisions(scene, path=None, episodes=None, radius=PEDESTRIAN_RADIUS,
     n = int(round(dt / PHYSICS_TIMESTEP))
     contact = radius + robot_radius
     out = []
-    for k, (r, i) in enumerate(sc.episodes[:episodes]):
+    if episodes is None or isinstance(episodes, int):
+        chosen = range(len(sc.episodes[:episodes]))
+    else:
+        chosen = [int(k) for k in episodes]
+    for k in chosen:
+        r, i = sc.episodes[k]
         rec, track = sc.recordings[r], sc.recordings[r].tracks[i]
         others, rows, L = _window(sc, k, None)
         people = RecordedPeople(

@@ -11,7 +11,7 @@ import pytest
 
 from dcmppi.bench.episodes.runner import EpisodeSpec, run_episode
 from dcmppi.bench.experiments import load_experiment
-from dcmppi.bench.reports.report import replay_table, smoothness_table, write_report
+from dcmppi.bench.reports.report import own_tracks, replay_table, smoothness_table, write_report
 from dcmppi.bench.results.database import ADDED, SCHEMA_VERSION, ResultsDB
 from dcmppi.bench.results.stats import replay_scenes, smoothness
 from dcmppi.bench.runs.execution import run_experiment
@@ -147,7 +147,20 @@ def test_a_tiny_replay_run_reports_its_scenes(tmp_path):
     for r in rows:
         assert r["human_time"] > 0 and r["human_path_length"] >= 5.0 and r["person"] >= 0
         assert 0 < r["frame_path_length"] <= r["path_length"] + 1e-9
-    scenes = [line.split(" | ")[2] for line in replay_table(rows, exp).splitlines()[2:]]
-    assert scenes == ["eth", "hotel", "univ", "**all**"]
+    lines = [line.split(" | ") for line in replay_table(rows, exp).splitlines()[2:]]
+    assert [cells[2] for cells in lines] == [
+        "eth",
+        "hotel",
+        "univ",
+        "**all**",
+        *"eth hotel univ".split(),
+    ]
+    for cells in lines[4:]:  # each replaced person along their own track: the rule's check
+        assert cells[1] == "replaced person, own track" and cells[3] == "1"
+        assert cells[5] in ("0.0 [0.0, 79.3]", "100.0 [20.7, 100.0]")
+    hits = own_tracks(rows, exp)
+    assert set(hits) == {"eth", "hotel", "univ"} and all(n == 1 for n, _ in hits.values())
+    missing = exp.with_params({"path": str(tmp_path)}, {})  # no recordings there: count only
+    assert own_tracks(rows, missing)["eth"] == (1, None)
     assert "## Recorded people, per scene" in md and "| none | dc-cv | univ | 1 |" in text
     assert "## Smoothness" in md and not math.isnan(rows[0]["indecision_per_s"])

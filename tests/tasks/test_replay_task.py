@@ -157,6 +157,8 @@ def test_self_collisions_are_rare_under_the_collision_distance():
     # with CrowdNav's 0.3 m discs the same people "collide" often: the check can fail
     wide = replay.self_collisions("zara2", folder, episodes=20, radius=0.3, robot_radius=0.3)
     assert wide.mean() > 0.3
+    picked = replay.self_collisions("zara2", folder, episodes=[19, 3], radius=0.3, robot_radius=0.3)
+    assert picked.tolist() == [wide[19], wide[3]]  # episodes by index
 
 
 def test_self_collisions_find_a_person_who_walks_through_another(tmp_path):

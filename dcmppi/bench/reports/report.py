@@ -37,6 +37,7 @@ from dcmppi.bench.results.stats import (
     paired,
     paired_scores,
     per_step,
+    rate,
     replay_scenes,
     row_order,
     scene_order,
@@ -118,7 +119,10 @@ REPLAY_NOTE = (
     "episodes, 95 % bootstrap interval. Frozen: timeouts that ended within "
     f"{FREEZE_MARGIN:g} m of the goal region (the final position within "
     f"{GOAL_TOLERANCE + FREEZE_MARGIN:g} m of the goal); elsewhere: the other timeouts; in % "
-    "of the episodes ('-': not recorded by an older database)."
+    "of the episodes ('-': not recorded by an older database). Replaced person, own track: "
+    "the people the robot replaced, each replayed along their own recorded track under the "
+    "task's collision rule; Collisions %: how often that rule counts their own walk as a "
+    "collision ('-': the recordings were not found: set DCMPPI_CROWDS)."
 )
 
 SCORE_NOTE = (
@@ -282,7 +286,39 @@ def replay_table(rows: list[dict], exp: Experiment) -> str:
             cells += [_interval(s[k], 1) for k in ("frozen", "elsewhere")]
             name = f"**{scene}**" if scene == ALL_SCENES else scene
             lines.append(f"| {noise} | {label} | {name} | {s['episodes']} | {' | '.join(cells)} |")
+    for scene, (n, hits) in own_tracks(rows, exp).items():
+        cells = ["-", _interval(hits, 1) if hits else "-", *["-"] * 5]
+        lines.append(f"| | {OWN_TRACK} | {scene} | {n} | {' | '.join(cells)} |")
     return "\n".join(lines)
+
+
+OWN_TRACK = "replaced person, own track"
+
+
+def own_tracks(rows: list[dict], exp: Experiment) -> dict:
+    """{scene: (people, collision rate (pct, lo, hi) or None)}: the replaced people of the
+    replay episodes in `rows`, each replayed along their own track under the task's collision
+    rule (tasks.replay.self_collisions), the check of that rule; rate None where the
+    recordings are not found (the task parameter path, else $DCMPPI_CROWDS)."""
+    from dcmppi.tasks import replay
+
+    people = {}
+    for r in rows:
+        if r["status"] == "ok" and r.get("recording") is not None:
+            people.setdefault(r["scene"], set()).add((r["recording"], int(r["person"])))
+    path = exp.task_params.get("path")
+    out = {}
+    for scene in scene_order(people):
+        if scene == ALL_SCENES:
+            continue
+        found = sorted(people[scene])
+        try:
+            ks = [replay.episode_index(scene, rec, person, path) for rec, person in found]
+            hits = replay.self_collisions(scene, path, episodes=ks)
+            out[scene] = (len(found), rate(int(hits.sum()), len(found)))
+        except (ValueError, OSError):  # recordings not at hand: the count only
+            out[scene] = (len(found), None)
+    return out
 
 
 def _interval(x, digits: int) -> str:

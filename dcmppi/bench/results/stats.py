@@ -147,10 +147,10 @@ def field_metrics(rows: list[dict]) -> dict[tuple[str, str], dict]:
         known = None not in kinds
         s = {
             "episodes": n,
-            "success": _rate(sum(r["outcome"] == "goal" for r in ok), n),
-            "pedestrian": _rate(kinds.count("pedestrian"), n) if known else None,
-            "static": _rate(kinds.count("static"), n) if known else None,
-            "timeout": _rate(sum(r["outcome"] == "time_limit" for r in ok), n),
+            "success": rate(sum(r["outcome"] == "goal" for r in ok), n),
+            "pedestrian": rate(kinds.count("pedestrian"), n) if known else None,
+            "static": rate(kinds.count("static"), n) if known else None,
+            "timeout": rate(sum(r["outcome"] == "time_limit" for r in ok), n),
         }
         for column, (over, scale) in MEANS.items():
             xs = [
@@ -202,12 +202,12 @@ def smoothness(rows: list[dict]) -> dict[tuple[str, str], dict]:
         times = [r["commit_time"] for r in took]
         s["commit_time"] = (mean(times), *bootstrap_mean(times), len(times)) if times else None
         s["committed"] = (
-            _rate(sum(r["commit_time"] <= COMMIT_WITHIN for r in took), n) if n else None
+            rate(sum(r["commit_time"] <= COMMIT_WITHIN for r in took), n) if n else None
         )
         s["settled"] = (
-            _rate(sum(r["commit_delay"] <= COMMIT_WITHIN for r in took), n) if n else None
+            rate(sum(r["commit_delay"] <= COMMIT_WITHIN for r in took), n) if n else None
         )
-        s["never_switched"] = _rate(sum(r["side_switches"] == 0 for r in took), n) if n else None
+        s["never_switched"] = rate(sum(r["side_switches"] == 0 for r in took), n) if n else None
         out[key] = s
     return out
 
@@ -255,13 +255,13 @@ def replay_scenes(rows: list[dict]) -> dict[tuple[str, str, str], dict]:
         )
         out[key] = {
             "episodes": n,
-            "success": _rate(len(goals), n),
-            "collision": _rate(sum(bool(r["collision"]) for r in ok), n),
-            "timeout": _rate(len(timeouts), n),
+            "success": rate(len(goals), n),
+            "collision": rate(sum(bool(r["collision"]) for r in ok), n),
+            "timeout": rate(len(timeouts), n),
             "path_ratio": (mean(paths), *bootstrap_mean(paths), len(paths)) if paths else None,
             "time_ratio": (mean(times), *bootstrap_mean(times), len(times)) if times else None,
-            "frozen": _rate(near, n) if known else None,
-            "elsewhere": _rate(len(timeouts) - near, n) if known else None,
+            "frozen": rate(near, n) if known else None,
+            "elsewhere": rate(len(timeouts) - near, n) if known else None,
         }
     return out
 
@@ -272,7 +272,7 @@ def scene_order(scenes) -> list[str]:
     return sorted(set(scenes), key=lambda s: (s == ALL_SCENES, order.get(s, len(order)), s))
 
 
-def _rate(k: int, n: int) -> tuple[float, float, float]:
+def rate(k: int, n: int) -> tuple[float, float, float]:
     """k of n in % with its Wilson interval: (pct, lo, hi)."""
     return (100 * k / n, *(100 * x for x in wilson(k, n)))
 

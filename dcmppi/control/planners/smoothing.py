@@ -77,22 +77,31 @@ def savitzky_golay(plan, history, coefficients):
     first row when H = 0) where there are too few; the half past the plan's end repeats its last
     row. Returns (N, nu): row i is sum_j coefficients[j] padded[i + j], summed in order of j.
     """
-    plan = np.asarray(plan, dtype=float)
+    plan = np.ascontiguousarray(plan, dtype=float)
+    history = np.ascontiguousarray(history, dtype=float).reshape(-1, plan.shape[1])
+    return _filter(plan, history, np.ascontiguousarray(coefficients, dtype=float))
+
+
+@numba.njit(cache=True)
+def _filter(plan, history, coefficients):
+    """savitzky_golay's rows, the padded sequence read in place."""
     n, nu = plan.shape
     half = len(coefficients) // 2
-    history = np.asarray(history, dtype=float).reshape(-1, nu)[-half:] if half else plan[:0]
-    first = history[0] if len(history) else plan[0]
-    padded = np.concatenate(
-        [
-            np.repeat(first[None], half - len(history), axis=0),
-            history,
-            plan,
-            np.repeat(plan[-1:], half, axis=0),
-        ]
-    )
-    out = coefficients[0] * padded[:n]
-    for j in range(1, len(coefficients)):
-        out += coefficients[j] * padded[j : j + n]
+    h = min(len(history), half)
+    out = np.zeros((n, nu))
+    for i in range(n):
+        for j in range(len(coefficients)):
+            t = i + j - half  # the padded row's step: < 0 in the history, >= n past the end
+            for c in range(nu):
+                if t >= n:
+                    v = plan[n - 1, c]
+                elif t >= 0:
+                    v = plan[t, c]
+                elif h == 0:
+                    v = plan[0, c]
+                else:
+                    v = history[len(history) + max(t, -h), c]
+                out[i, c] += coefficients[j] * v
     return out
 
 

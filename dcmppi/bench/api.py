@@ -130,7 +130,8 @@ def _open(exp: Experiment, shard, db, allow_mixed: bool) -> ResultsDB:
     # one environment's episodes hold every row and noise; the others are made as they run
     first = list(itertools.islice(exp.specs(shard), len(exp.noises) * len(exp.labels)))
     try:
-        check_specs([spec for _, spec in first])
+        others = [(r.controller, r.params) for r in exp.rows if r.label not in exp.labels]
+        check_specs([spec for _, spec in first], others)
     except ValueError as e:
         raise ValueError(f"experiment {exp.name}: {e}") from e
     path = Path(db or f"results/{exp.name}.db")

@@ -49,6 +49,12 @@ def test_own_parameters_must_be_taken_shared_ones_by_some_controller():
     check_specs([_spec(f"{MODULE}:Straight", shared=SMALL), _spec("mppi", shared=SMALL)])
     with pytest.raises(ValueError, match="lamda set for every controller but taken by none"):
         check_specs([_spec(f"{MODULE}:Straight", shared={"lamda": 2}), _spec("mppi")])
+    # an experiment's rows not run now take theirs: the classical rows run alone
+    with pytest.raises(ValueError, match="K, N set for every controller but taken by none"):
+        check_specs([_spec(f"{MODULE}:Straight", shared=SMALL)])
+    check_specs([_spec(f"{MODULE}:Straight", shared=SMALL)], others=[("mppi", {})])
+    with pytest.raises(ValueError, match="lamda set for every controller but taken by none"):
+        check_specs([_spec(f"{MODULE}:Straight", shared={"lamda": 2})], others=[("mppi", {})])
 
 
 @pytest.mark.parametrize(

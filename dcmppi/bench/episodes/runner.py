@@ -95,11 +95,12 @@ def controller_for(spec: EpisodeSpec):
     return build(spec.controller, spec.controller_params, _shared_args(spec))
 
 
-def check_specs(specs) -> None:
+def check_specs(specs, others=()) -> None:
     """Build (and reset) the environment of the first spec and the controller of every distinct
     one, so that a bad name, parameter, world or missing dependency fails before anything is
     recorded. A shared parameter that none of the controllers takes is an error (a misspelt
-    name)."""
+    name); `others`: (controller, params) of an experiment's rows not run now, which count as
+    taking what they accept (the MPPI rows' shared parameters when only classical rows run)."""
     from dcmppi.bench.episodes.plugins import accepted_params, resolve_controller
 
     first = {}
@@ -107,16 +108,23 @@ def check_specs(specs) -> None:
         key = json.dumps([spec.controller, spec.controller_params], sort_keys=True)
         first.setdefault(key, spec)
     unused = set().union(*(spec.shared_params for spec in first.values()))
+    agent = None
     for i, spec in enumerate(first.values()):
         controller_for(spec)
         shared = _shared_args(spec)
+        agent = shared["agent"]
         prediction = {**shared, **spec.controller_params}.get("prediction")
-        accepted = accepted_params(resolve_controller(spec.controller), shared["agent"], prediction)
+        accepted = accepted_params(resolve_controller(spec.controller), agent, prediction)
         unused = set() if accepted is None else unused - accepted
         if i == 0:  # a world the task cannot draw (an impossible layout) fails here
             env = make_env(spec)
             env.reset()
             env.close()
+    for controller, params in others:
+        if unused and agent is not None:
+            prediction = {**next(iter(first.values())).shared_params, **params}.get("prediction")
+            accepted = accepted_params(resolve_controller(controller), agent, prediction)
+            unused = set() if accepted is None else unused - accepted
     if unused:
         names = ", ".join(dict.fromkeys(spec.controller for spec in first.values()))
         raise ValueError(

@@ -6,10 +6,12 @@ import pytest
 from scipy.signal import savgol_coeffs
 
 import dcmppi
+from dcmppi.control.agents import make_agent
 from dcmppi.control.defaults import PRESETS
 from dcmppi.control.planners.clustered import with_hysteresis, without_singletons
 from dcmppi.control.planners.controller import shifted
 from dcmppi.control.planners.smoothing import (
+    bounded,
     change_costs,
     continuing,
     filter_coefficients,
@@ -51,6 +53,13 @@ def test_filter_keeps_a_quadratic_and_damps_alternation():
     np.testing.assert_allclose(np.abs(smooth[4:-4]), 41 / 231, rtol=1e-12)
     # too little history: the oldest (or the first row) repeats
     np.testing.assert_allclose(savitzky_golay(np.ones((6, 1)), np.zeros((0, 1)), c), 1.0)
+
+
+@pytest.mark.parametrize("agent", ["holonomic", "unicycle", "dubins"])
+def test_bounded_plan_is_the_agents_projection(agent):
+    model = make_agent(agent)
+    plan = np.random.default_rng(0).normal(0.0, 2.0, (50, model.nu))
+    np.testing.assert_array_equal(bounded(model, plan), model.project(plan, axis=1))
 
 
 def test_filtered_plan_is_applied_and_warm_starts():

@@ -29,7 +29,12 @@ from dcmppi.control.kernels.sums import importance_of
 from dcmppi.control.kernels.threads import parts, run
 from dcmppi.control.objective import Objective
 from dcmppi.control.planners.diagnostics import Diagnostics
-from dcmppi.control.planners.smoothing import change_costs, filter_coefficients, savitzky_golay
+from dcmppi.control.planners.smoothing import (
+    bounded,
+    change_costs,
+    filter_coefficients,
+    savitzky_golay,
+)
 from dcmppi.control.planners.temperature import COLLISION_NATS, ESS_TARGET, choose_lambda
 from dcmppi.control.predictors import predictor_class
 from dcmppi.control.predictors.base import INPUTS
@@ -446,8 +451,7 @@ class Controller:
             return plan
         history = np.array(self._applied).reshape(-1, self.nu)
         with self.timer("filter"):
-            filtered = savitzky_golay(plan, history, self._filter)
-            return self.agent.project(filtered, axis=1)
+            return bounded(self.agent, savitzky_golay(plan, history, self._filter))
 
     def finish(self, plan):
         """Apply the plan's first controls and warm-start the next step by shifting it.

@@ -73,7 +73,7 @@ def test_barn_experiment_maps_environment_i_to_world_i():
         "world",
         "mppi",
     )
-    assert exp.labels == ("mppi", "clustered", "tube", "dwa")
+    assert exp.labels == ("mppi", "clustered", "tube", "dwa", "mppi+smooth", "clustered+smooth")
     assert exp.task_params["agent"] == "unicycle" and exp.task_params["robot_radius"] == 0.3
     assert 100 - exp.paper("none", "mppi").failure_pct == pytest.approx(80.5)
     assert 100 - exp.paper("none", "clustered").failure_pct == pytest.approx(80.2)

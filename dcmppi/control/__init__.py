@@ -3,13 +3,15 @@ MPPI / Clustered / DC / Tube planners, in layers (each imports only those above 
 
     kernels/         compiled numerics: rollouts, costs, draws, projection, sums, DBSCAN
     agents/          dubins, unicycle, holonomic: bounds and rollouts (register_agent)
-    predictors/      frozen, prior, ekf, cv, social, given: the moving obstacles' futures
+    predictors/      frozen, prior, ekf, cv, social, given, learned: the moving obstacles' futures
     objective.py     Objective: goal distance + static cost map + moving-obstacle term
-    planners/        Controller and mppi, clustered, dc, tube; the controllers' registry
+    planners/        Controller and mppi, clustered, dc, tube, their smoothing; the classical
+                     orca, hrvo, hl, social_force, dwa; the controllers' registry
     defaults.py, validation.py, registry.py, timer.py   defaults, checks, named registries,
                      the profile's hook (usable by every layer)
 
-Pure numpy, numba, scipy and scikit-learn. May import nothing of MuJoCo, dm_control,
+numpy, numba, scipy and scikit-learn (navground, for the classical orca, hrvo and hl, when one is
+built). May import nothing of MuJoCo, dm_control,
 dcmppi.tasks, dcmppi.bench or dcmppi.render (tests/test_architecture.py checks this and the
 layers). `import dcmppi.control` loads no planner (and so neither scipy nor scikit-learn)
 until the registry is used or a planner module is imported.

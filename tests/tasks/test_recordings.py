@@ -62,9 +62,7 @@ def test_environment_variable_names_the_folder(monkeypatch):
 
 def test_a_missing_folder_is_one_error_line_naming_both_ways(monkeypatch, tmp_path):
     monkeypatch.delenv(recordings.CROWDS_ENV, raising=False)
-    with pytest.raises(
-        ValueError, match=r"not part of dcmppi: set DCMPPI_CROWDS=DIR, .*path=DIR"
-    ):
+    with pytest.raises(ValueError, match=r"not part of dcmppi: set DCMPPI_CROWDS=DIR, .*path=DIR"):
         recordings.load("biwi_eth")
     with pytest.raises(ValueError, match=r"^folder=.*nowhere: no such folder.*DCMPPI_CROWDS") as e:
         recordings.scene("eth", tmp_path / "nowhere")

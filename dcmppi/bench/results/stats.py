@@ -204,9 +204,7 @@ def smoothness(rows: list[dict]) -> dict[tuple[str, str], dict]:
         s["committed"] = (
             rate(sum(r["commit_time"] <= COMMIT_WITHIN for r in took), n) if n else None
         )
-        s["settled"] = (
-            rate(sum(r["commit_delay"] <= COMMIT_WITHIN for r in took), n) if n else None
-        )
+        s["settled"] = rate(sum(r["commit_delay"] <= COMMIT_WITHIN for r in took), n) if n else None
         s["never_switched"] = rate(sum(r["side_switches"] == 0 for r in took), n) if n else None
         out[key] = s
     return out

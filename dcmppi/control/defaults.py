@@ -43,17 +43,13 @@ def omega_max(v: float = V, r_min: float = R_MIN) -> float:
 # cluster. Tried and left out: a change cost of 3 / Sigma stalled the robot (corridor episodes
 # twice as long), 0.3 / Sigma smoothed little more; without the least-cost sample's own cluster
 # dc collided more in every crowd.
-# change_cost_per_variance: the change cost's weight of each control is this / Sigma (a change
-# of one sampling std costs this many cost units).
 PRESETS = {
     "paper": {},
     "smooth": {
         "lambda_": "auto",
         "ess_target": 0.05,
-        "change_cost_per_variance": 0.0,
         "filter_window": 9,
         "filter_order": 2,
-        "best_sample_cluster": True,
         "hysteresis": 50.0,
     },
 }

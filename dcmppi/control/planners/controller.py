@@ -81,7 +81,7 @@ class Controller:
         and ess_target where they are not given.
       change_cost: weight of the cost on control changes (dcmppi.control.planners.smoothing),
         one number for every control or one per control, in cost units per squared unit of the
-        control (e.g. (m/s)^-2); 0: none (default; "smooth": 3 / Sigma).
+        control (e.g. (m/s)^-2); 0: none (the default, "smooth" too).
       filter_window, filter_order: the Savitzky-Golay filter of the plan, its odd window (>= 3;
         0: no filter, the default; "smooth": 9) and polynomial order (< window; default 2).
     Attributes: agent, predictor, objective (the last step's), diagnostics (the last step's),
@@ -152,9 +152,7 @@ class Controller:
         self.obstacle_margin = positive("obstacle_margin", obstacle_margin, allow_zero=True)
         self.threads = positive("threads", threads, integer=True)
         self.seed = seed_param(seed)
-        self.change_cost = change_cost_param(
-            change_cost, self.Sigma, PRESETS[self.preset].get("change_cost_per_variance", 0.0)
-        )
+        self.change_cost = change_cost_param(change_cost, len(self.Sigma))
         self._change_weight = self.change_cost if self.change_cost.any() else None
         self.filter_window, self.filter_order = filter_params(
             self.option("filter_window", filter_window, 0),
@@ -559,20 +557,17 @@ def predictor_for(prediction):
     return predictor
 
 
-def change_cost_param(value, Sigma, per_variance=0.0):
-    """change_cost as weights (nu,) >= 0, one per control of the variances Sigma (nu,): a
-    number for every control or one per control; None: per_variance / Sigma. A ValueError for
-    anything else."""
+def change_cost_param(value, nu):
+    """change_cost as weights (nu,) >= 0: a number for every control or one per control; None:
+    zeros (no change cost). A ValueError for anything else."""
     if value is None:
-        return per_variance / np.asarray(Sigma, dtype=float)
+        return np.zeros(nu)
     values = np.atleast_1d(np.asarray(floats("change_cost", value)))
-    if values.ndim != 1 or len(values) not in (1, len(Sigma)):
-        raise ValueError(
-            f"change_cost must be a number or one per control ({len(Sigma)}); got {value!r}"
-        )
+    if values.ndim != 1 or len(values) not in (1, nu):
+        raise ValueError(f"change_cost must be a number or one per control ({nu}); got {value!r}")
     for v in values.tolist():
         positive("change_cost", v, allow_zero=True)
-    return np.broadcast_to(values, np.shape(Sigma)).astype(float)
+    return np.broadcast_to(values, (nu,)).astype(float)
 
 
 def filter_params(window, order):

@@ -8,10 +8,10 @@ from scipy.signal import savgol_coeffs
 import dcmppi
 from dcmppi.control.agents import make_agent
 from dcmppi.control.defaults import PRESETS
+from dcmppi.control.kernels.projection import bound_rows
 from dcmppi.control.planners.clustered import with_hysteresis, without_singletons
 from dcmppi.control.planners.controller import shifted
 from dcmppi.control.planners.smoothing import (
-    bounded,
     change_costs,
     continuing,
     filter_coefficients,
@@ -59,7 +59,7 @@ def test_filter_keeps_a_quadratic_and_damps_alternation():
 def test_bounded_plan_is_the_agents_projection(agent):
     model = make_agent(agent)
     plan = np.random.default_rng(0).normal(0.0, 2.0, (50, model.nu))
-    np.testing.assert_array_equal(bounded(model, plan), model.project(plan, axis=1))
+    np.testing.assert_array_equal(bound_rows(model, plan), model.project(plan, axis=1))
 
 
 def test_filtered_plan_is_applied_and_warm_starts():

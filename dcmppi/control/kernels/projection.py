@@ -129,6 +129,24 @@ def bound(agent, u):
     return agent.project(u[None], axis=1)[0]
 
 
+def bound_rows(agent, u):
+    """`agent.project(u, axis=1)` of control rows u (N, nu), their values, in one compiled
+    call (`bound` of each row)."""
+    if agent.norm_axes is None:
+        return _bound_rows(u, agent.lower, agent.upper, 0, 0, np.inf)
+    if len(agent.norm_axes) == 2:
+        return _bound_rows(u, agent.lower, agent.upper, *agent.norm_axes, agent.norm_limit)
+    return agent.project(u, axis=1)
+
+
+@numba.njit(cache=True)
+def _bound_rows(u, lower, upper, p, q, limit):
+    out = np.empty_like(u)
+    for i in range(u.shape[0]):
+        out[i] = _bound(u[i], lower, upper, p, q, limit)
+    return out
+
+
 @numba.njit(cache=True)
 def _bound(u, lower, upper, p, q, limit):
     """np.clip(u, lower, upper), then u_p and u_q scaled back onto the disc of radius limit

@@ -24,17 +24,12 @@ from dcmppi.control.agents import make_agent
 from dcmppi.control.defaults import PRESETS
 from dcmppi.control.kernels.costs import RESOLUTION, OccupancyGrid, valid_cylinders
 from dcmppi.control.kernels.perturbations import Draw, draw_normals
-from dcmppi.control.kernels.projection import NO_SUMS, bound, project_columns
+from dcmppi.control.kernels.projection import NO_SUMS, bound, bound_rows, project_columns
 from dcmppi.control.kernels.sums import importance_of
 from dcmppi.control.kernels.threads import parts, run
 from dcmppi.control.objective import Objective
 from dcmppi.control.planners.diagnostics import Diagnostics
-from dcmppi.control.planners.smoothing import (
-    bounded,
-    change_costs,
-    filter_coefficients,
-    savitzky_golay,
-)
+from dcmppi.control.planners.smoothing import change_costs, filter_coefficients, savitzky_golay
 from dcmppi.control.planners.temperature import COLLISION_NATS, ESS_TARGET, choose_lambda
 from dcmppi.control.predictors import predictor_class
 from dcmppi.control.predictors.base import INPUTS
@@ -449,7 +444,7 @@ class Controller:
             return plan
         history = np.array(self._applied).reshape(-1, self.nu)
         with self.timer("filter"):
-            return bounded(self.agent, savitzky_golay(plan, history, self._filter))
+            return bound_rows(self.agent, savitzky_golay(plan, history, self._filter))
 
     def finish(self, plan):
         """Apply the plan's first controls and warm-start the next step by shifting it.

@@ -20,8 +20,6 @@ from fractions import Fraction
 import numba
 import numpy as np
 
-from dcmppi.control.agents import Agent
-
 
 @numba.njit(cache=True)
 def change_costs(u, previous, weight, j0, j1):
@@ -105,36 +103,6 @@ def _filter(plan, history, coefficients):
                     v = history[len(history) + max(t, -h), c]
                 out[i, c] += coefficients[j] * v
     return out
-
-
-def bounded(agent, plan):
-    """agent.project(plan, axis=1) of a plan (N, nu), in one compiled pass for an agent that
-    keeps the base class's projection (a box, then a norm bound over its norm_axes): the same
-    values."""
-    if type(agent).project is not Agent.project:
-        return agent.project(plan, axis=1)
-    axes = np.zeros(0, dtype=np.int64) if agent.norm_axes is None else np.array(agent.norm_axes)
-    out = np.array(plan, dtype=float)
-    _bound_rows(out, agent.lower, agent.upper, axes, agent.norm_limit)
-    return out
-
-
-@numba.njit(cache=True)
-def _bound_rows(u, lower, upper, axes, limit):
-    """Each row of u (N, nu) clipped to [lower, upper], then its entries `axes` scaled onto
-    the norm `limit` where their norm exceeds it (Agent.project's arithmetic), in place."""
-    for i in range(u.shape[0]):
-        for c in range(u.shape[1]):
-            u[i, c] = min(max(u[i, c], lower[c]), upper[c])
-        if len(axes):
-            total = 0.0
-            for a in axes:
-                total += u[i, a] * u[i, a]
-            norm = np.sqrt(total)
-            if norm > limit:
-                scale = limit / max(norm, 1e-300)
-                for a in axes:
-                    u[i, a] = u[i, a] * scale
 
 
 def continuing(U, U0, Sigma):

@@ -65,6 +65,15 @@ def test_the_car_is_refused_with_one_line_naming_the_agents(name):
         dcmppi.make_controller(name, agent="dubins")
 
 
+@pytest.mark.parametrize("name, agent", CASES)
+def test_a_bad_state_or_goal_is_one_line(name, agent):
+    ctrl = dcmppi.make_controller(name, agent=agent)
+    with pytest.raises(ValueError, match=r"state must be \(3,\) and goal \(2,\)"):
+        ctrl.act(np.zeros(2), np.ones(2))
+    with pytest.raises(ValueError, match="state and goal must be finite"):
+        ctrl.act(np.zeros(3), np.array([np.nan, 1.0]))
+
+
 def test_mppi_parameters_are_refused():
     with pytest.raises(ValueError, match="unknown parameter.*K"):
         dcmppi.make_controller("dwa", agent="unicycle", K=100)

@@ -260,15 +260,7 @@ class Controller:
         Returns:
           (nu,) controls within the agent's bounds (dubins: the turn rate omega).
         """
-        state = floats("state", state)
-        goal = floats("goal", goal)
-        if state.shape != (3,) or goal.shape != (2,):
-            raise ValueError(f"state must be (3,) and goal (2,); got {state.shape}, {goal.shape}")
-        if not all(abs(v) < MAX_COORDINATE for v in (*state.tolist(), *goal.tolist())):  # nan too
-            raise ValueError(
-                f"state and goal must be finite and within {MAX_COORDINATE:.0e} (m, rad); "
-                f"got {state}, {goal}"
-            )
+        state, goal = state_and_goal(state, goal)
         if self._grid is None or not self._grid.matches(static, bounds):
             self._grid = OccupancyGrid(static, self.robot_radius, self.resolution, bounds)
         if self.U is None:
@@ -550,6 +542,20 @@ def predictor_for(prediction):
             f"valid inputs: {', '.join(INPUTS)}"
         )
     return predictor
+
+
+def state_and_goal(state, goal):
+    """state (3,) and goal (2,) as float arrays; a ValueError where either has another shape or
+    a coordinate is not finite or beyond MAX_COORDINATE."""
+    state, goal = floats("state", state), floats("goal", goal)
+    if state.shape != (3,) or goal.shape != (2,):
+        raise ValueError(f"state must be (3,) and goal (2,); got {state.shape}, {goal.shape}")
+    if not all(abs(v) < MAX_COORDINATE for v in (*state.tolist(), *goal.tolist())):  # nan too
+        raise ValueError(
+            f"state and goal must be finite and within {MAX_COORDINATE:.0e} (m, rad); "
+            f"got {state}, {goal}"
+        )
+    return state, goal
 
 
 def change_cost_param(value, nu):

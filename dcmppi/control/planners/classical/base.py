@@ -20,7 +20,7 @@ from dcmppi.control import defaults
 from dcmppi.control.agents import make_agent
 from dcmppi.control.kernels.costs import valid_cylinders
 from dcmppi.control.kernels.projection import bound
-from dcmppi.control.planners.controller import MAX_COORDINATE, observed_velocity, seed_param
+from dcmppi.control.planners.controller import observed_velocity, seed_param, state_and_goal
 from dcmppi.control.planners.diagnostics import Diagnostics
 from dcmppi.control.validation import floats, positive
 
@@ -109,11 +109,7 @@ class Classical:
         aside): state (3,), goal (2,), static (M, 3), moving (L, 4) x, y, heading (nan: not
         observed), radius, obstacle_model (4,), bounds (4,) and moving_velocity (L, 2) (nan rows:
         not observed). Returns (nu,) controls within the agent's bounds."""
-        state, goal = floats("state", state), floats("goal", goal)
-        if state.shape != (3,) or goal.shape != (2,):
-            raise ValueError(f"state must be (3,) and goal (2,); got {state.shape}, {goal.shape}")
-        if not all(abs(x) < MAX_COORDINATE for x in (*state.tolist(), *goal.tolist())):
-            raise ValueError(f"state and goal must be finite; got {state}, {goal}")
+        state, goal = state_and_goal(state, goal)
         if self.velocity is None:
             self.velocity = start_velocity(self.agent, state[2])
         observed = moving

@@ -231,16 +231,7 @@ def score_table(rows: list[dict], exp: Experiment) -> str:
 def metrics_table(rows: list[dict], exp: Experiment) -> str:
     """The field's metrics per (noise, row) with 95 % intervals (see `field_metrics`); '-' for
     the metrics that do not apply."""
-    stats = field_metrics(rows)
-    head = "| Noise | Row | Episodes | " + " | ".join(h for h, _, _ in METRICS_COLUMNS) + " |"
-    lines = [head, "|---|---|---:|" + "---|" * len(METRICS_COLUMNS)]
-    for noise, label in groups(rows, exp):
-        s = stats.get((noise, label))
-        if s is None:  # errors only
-            continue
-        cells = [_interval(s[key], digits) for _, key, digits in METRICS_COLUMNS]
-        lines.append(f"| {noise} | {label} | {s['episodes']} | {' | '.join(cells)} |")
-    return "\n".join(lines)
+    return _interval_table(field_metrics(rows), rows, exp, METRICS_COLUMNS)
 
 
 def smoothness_table(rows: list[dict], exp: Experiment) -> str:
@@ -253,6 +244,12 @@ def smoothness_table(rows: list[dict], exp: Experiment) -> str:
     columns = SMOOTHNESS_COLUMNS
     if any(s["blocked"] for s in stats.values()):
         columns += COMMIT_COLUMNS
+    return _interval_table(stats, rows, exp, columns)
+
+
+def _interval_table(stats: dict, rows: list[dict], exp: Experiment, columns) -> str:
+    """One line per (noise, row) of `stats` ({(noise, label): {"episodes", key: interval}}):
+    its episodes and each of `columns` (header, key, digits) as 'value [lo, hi]'."""
     head = "| Noise | Row | Episodes | " + " | ".join(h for h, _, _ in columns) + " |"
     lines = [head, "|---|---|---:|" + "---|" * len(columns)]
     for noise, label in groups(rows, exp):

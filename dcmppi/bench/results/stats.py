@@ -136,10 +136,7 @@ def field_metrics(rows: list[dict]) -> dict[tuple[str, str], dict]:
     with a value with its bootstrap interval, in the unit of MEANS; min_ttc: (median, lo, hi,
     n) with the bootstrap interval of the median (inf allowed). None where no episode has a
     value."""
-    groups = defaultdict(list)
-    for r in rows:
-        if r["status"] == "ok":
-            groups[(r["noise"], r["label"])].append(r)
+    groups = finished_by_row(rows)
     out = {}
     for key, ok in groups.items():
         n = len(ok)
@@ -185,10 +182,7 @@ def smoothness(rows: list[dict]) -> dict[tuple[str, str], dict]:
     the blocked episodes: committed (commit_time <= COMMIT_WITHIN), settled (commit_delay <=
     COMMIT_WITHIN: it kept a side within that long of first taking one), never_switched (took
     a side and never changed it). An episode that never took a side counts as none of these."""
-    groups = defaultdict(list)
-    for r in rows:
-        if r["status"] == "ok":
-            groups[(r["noise"], r["label"])].append(r)
+    groups = finished_by_row(rows)
     out = {}
     for key, ok in groups.items():
         s = {"episodes": len(ok)}
@@ -268,6 +262,15 @@ def scene_order(scenes) -> list[str]:
     """`scenes` with the test scenes first in SCENE_ORDER, others by name, ALL_SCENES last."""
     order = {s: i for i, s in enumerate(SCENE_ORDER)}
     return sorted(set(scenes), key=lambda s: (s == ALL_SCENES, order.get(s, len(order)), s))
+
+
+def finished_by_row(rows: list[dict]) -> dict[tuple[str, str], list[dict]]:
+    """The finished episodes (status ok) of `rows` by (noise, row label), in their order."""
+    groups = defaultdict(list)
+    for r in rows:
+        if r["status"] == "ok":
+            groups[(r["noise"], r["label"])].append(r)
+    return groups
 
 
 def rate(k: int, n: int) -> tuple[float, float, float]:

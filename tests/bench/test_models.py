@@ -14,6 +14,7 @@ from dcmppi.bench.experiments import (
     Experiment,
     ExperimentError,
     crowds,
+    environment_seed,
     load_experiment,
     models,
 )
@@ -164,7 +165,7 @@ def test_the_square_rows_recipe_records_other_seeds_and_builds(cache):
     record = info["recipe"]["record"]
     assert record["task"] == "square" and record["task_params"] == exp.task_params
     # the recorded episodes' seeds are none of the test environments'
-    recorded = {crowds.episode_seed(record["base_seed"], e) for e in range(200)}
+    recorded = {environment_seed(record["base_seed"], e) for e in range(200)}
     assert not recorded & {exp.seed(i) for i in range(exp.episodes)}
 
 

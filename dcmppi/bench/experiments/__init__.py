@@ -65,6 +65,12 @@ class Row:
     paper: dict = dataclasses.field(default_factory=dict)
 
 
+def environment_seed(base_seed: int, index: int) -> int:
+    """The seed of environment `index` of an experiment of `base_seed` (its world, noise and
+    controller streams come from it): SeedSequence([base_seed, index])'s first word."""
+    return int(np.random.SeedSequence([base_seed, index]).generate_state(1)[0])
+
+
 @dataclasses.dataclass(frozen=True)
 class Experiment:
     """An experiment: task, rows, noise profiles, environment count, parameters.
@@ -138,7 +144,7 @@ class Experiment:
 
     def seed(self, index: int) -> int:
         """World/noise/controller seed of environment `index` (independent streams)."""
-        return int(np.random.SeedSequence([self.base_seed, index]).generate_state(1)[0])
+        return environment_seed(self.base_seed, index)
 
     def config(self) -> dict:
         """What a results database is bound to: rows made under another config differ."""

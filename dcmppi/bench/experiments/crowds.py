@@ -20,14 +20,10 @@ their own, so no window or neighbour spans two episodes.
 import numpy as np
 
 from dcmppi.bench.episodes import futures
+from dcmppi.bench.experiments import environment_seed
 from dcmppi.tasks import recordings
 
 WITH_PEDESTRIANS = ("square", "corridor", "crowd")  # named in errors: tasks with walkers
-
-
-def episode_seed(base_seed: int, episode: int) -> int:
-    """The task seed of episode `episode` (as `Experiment.seed` derives environment seeds)."""
-    return int(np.random.SeedSequence([base_seed, episode]).generate_state(1)[0])
 
 
 def record(
@@ -64,7 +60,7 @@ def record(
             raise ValueError(f"record: {reserved} is set per episode; remove it")
     tracks, frame0, next_id = [], 0, 1
     for e in range(episodes):
-        env = tasks.load(task, task_kwargs={**params, "random": episode_seed(base_seed, e)})
+        env = tasks.load(task, task_kwargs={**params, "random": environment_seed(base_seed, e)})
         env.reset()
         dt = env.control_timestep()
         stride = int(round(period / dt))

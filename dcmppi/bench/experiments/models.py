@@ -44,6 +44,7 @@ import pathlib
 import string
 import sys
 
+from dcmppi.control.predictors import learned
 from dcmppi.tasks import recordings
 
 MODELS_ENV = "DCMPPI_MODELS"  # environment variable naming the cache folder of trained models
@@ -303,7 +304,7 @@ def build(resolved: dict, path) -> None:
             "inputs": _inputs(str(path), resolved),
             "windows": len(model.features),
             "shrink": model.shrink,
-            "sha256": _sha256(part),
+            "sha256": learned.sha256(part),
         }
         path.with_suffix(".json").write_text(json.dumps(info, indent=1, sort_keys=True) + "\n")
         os.replace(part, path)
@@ -314,12 +315,6 @@ def build(resolved: dict, path) -> None:
 def train(data, out, seed=0, max_windows=None):
     """A learned predictor's model of `data` (Recordings of one period) written to `out`: what
     `dcmppi predictor train` does. Returns the `learned.Model`."""
-    from dcmppi.control.predictors import learned
-
     model = learned.fit(recordings.windows(data), seed, max_windows=max_windows)
     model.save(out)
     return model
-
-
-def _sha256(path) -> str:
-    return hashlib.sha256(pathlib.Path(path).read_bytes()).hexdigest()

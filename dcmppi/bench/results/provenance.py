@@ -253,9 +253,7 @@ def model_files(label: str, spec) -> dict:
             f"row {label!r}: prediction 'learned' model={model}: no such file; train one with "
             "`dcmppi predictor train --out MODEL` or fix the path"
         )
-    from dcmppi.control.predictors.learned import sha256
-
-    return {f"row {label} model": {"path": str(path.resolve()), "sha256": sha256(path)}}
+    return {f"row {label} model": file_entry(path)}
 
 
 def user_modules(spec) -> dict:

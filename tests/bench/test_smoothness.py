@@ -58,13 +58,13 @@ def test_a_zigzag_changes_turn_sign_once_per_corner_after_the_first():
 
 def test_indecision_is_per_metre_and_per_second():
     z = zigzag(4)  # 25 steps of 0.1 m: 2.5 m in 2.5 s
-    got = indecision(z, DT)
+    got = indecision(z, DT, float(np.hypot(*np.diff(z, axis=0).T).sum()))
     assert got["turn_sign_changes"] == 3
     assert got["indecision_per_m"] == pytest.approx(3 / 2.5)
     assert got["indecision_per_s"] == pytest.approx(3 / 2.5)
-    still = indecision(np.zeros((5, 2)), DT)
+    still = indecision(np.zeros((5, 2)), DT, 0.0)
     assert still == {"turn_sign_changes": 0, "indecision_per_m": None, "indecision_per_s": 0.0}
-    assert indecision(np.zeros((1, 2)), DT)["indecision_per_s"] is None
+    assert indecision(np.zeros((1, 2)), DT, 0.0)["indecision_per_s"] is None
 
 
 def path_around(lateral):

@@ -296,13 +296,12 @@ def turn_sign_changes(path, dt: float) -> int:
     return int(np.count_nonzero(signs[1:] != signs[:-1]))
 
 
-def indecision(path, dt: float) -> dict:
-    """turn_sign_changes of the path, and per metre travelled (indecision_per_m; None for a
-    path of length 0) and per second of the episode (indecision_per_s, (n - 1) dt; None for
-    a path of one instant)."""
+def indecision(path, dt: float, length: float) -> dict:
+    """turn_sign_changes of the path, and per metre travelled (indecision_per_m; `length`, the
+    path's length; None for 0) and per second of the episode (indecision_per_s, (n - 1) dt;
+    None for a path of one instant)."""
     p = np.asarray(path, dtype=np.float64)
     changes = turn_sign_changes(p, dt)
-    length = float(np.hypot(*np.diff(p, axis=0).T).sum()) if len(p) > 1 else 0.0
     duration = (len(p) - 1) * dt
     return {
         "turn_sign_changes": changes,

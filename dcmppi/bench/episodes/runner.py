@@ -374,12 +374,12 @@ class Episode:
             "final_pose": [float(v) for v in self.poses[-1]],
             "goal_distance": float(np.hypot(*(path[-1] - world.goal[:2]))),
             "trace": encode_trace(self.poses),
-            **self._smoothness(path),
+            **self._smoothness(path, length),
             **self._commitment(path),
             **self._human(path),
         }
 
-    def _smoothness(self, path) -> dict:
+    def _smoothness(self, path, length) -> dict:
         """control_rate_linear [m/s^2] and control_rate_angular [rad/s^2] of the actions
         (`control_rates`; None where the agent has no such control), turn_sign_changes,
         indecision_per_m and indecision_per_s of the path (`indecision`)."""
@@ -389,7 +389,7 @@ class Episode:
         return {
             "control_rate_linear": linear,
             "control_rate_angular": angular,
-            **indecision(path, dt),
+            **indecision(path, dt, length),
         }
 
     def _commitment(self, path) -> dict:

@@ -71,6 +71,30 @@ def test_filtered_plan_is_applied_and_warm_starts():
         assert np.all(np.hypot(d.plan[:, 0], d.plan[:, 1]) <= 1.5 + 1e-9)  # still in bounds
 
 
+@pytest.mark.parametrize("name", ["mppi", "dc", "tube"])
+def test_guard_applies_the_plan_where_the_filtered_one_costs_more(name):
+    """With filter_guard, the filtered plan unless the plan as optimised is cheaper by more than
+    the margin; a filter that lags behind a turn away from the cylinder meets it."""
+    ctrl = dcmppi.make_controller(
+        name, agent="holonomic", seed=0, K=64, filter_window=9, filter_guard=0.0
+    )
+    state = np.array([4.45, 0.0, 0.0])  # 0.05 m from touching the cylinder ahead
+    list(head_on(ctrl, 2))
+    ctrl._applied.extend([np.array([1.5, 0.0, 0.0])] * 4)  # straight at the cylinder
+    swerve = np.tile([0.0, 1.5, 0.0], (ctrl.N, 1))  # away from it, at once
+    straight_on = np.tile([1.5, 0.0, 0.0], (ctrl.N, 1))
+    _, J = ctrl.rollout_costs(state, np.stack([swerve, straight_on], axis=2))
+    assert J[0] < J[1]
+    assert ctrl.smoothed(swerve, state) is swerve and ctrl.diagnostics.guarded
+    ctrl.filter_guard = float(J[1] - J[0]) + 1.0  # the filtered plan is within the margin
+    kept = ctrl.smoothed(swerve, state)
+    assert not ctrl.diagnostics.guarded and not np.array_equal(kept, swerve)
+    unguarded = dcmppi.make_controller(name, agent="holonomic", seed=0, K=64, filter_window=9)
+    list(head_on(unguarded, 2))
+    unguarded._applied.extend([np.array([1.5, 0.0, 0.0])] * 4)
+    np.testing.assert_array_equal(unguarded.smoothed(swerve, state), kept)
+
+
 def test_change_cost_charges_a_jagged_sequence():
     N = 20
     smooth = np.full((N, 1), 0.5)
@@ -170,6 +194,7 @@ def test_unknown_preset_is_one_line_naming_the_valid_ones():
         ({"change_cost": -1.0}, "change_cost must be >= 0"),
         ({"change_cost": [1.0, 2.0]}, "one per control"),
         ({"hysteresis": -1.0}, "hysteresis must be >= 0"),
+        ({"filter_guard": -1.0}, "filter_guard must be >= 0"),
         ({"best_sample_cluster": "no"}, "best_sample_cluster must be true or false"),
     ],
 )

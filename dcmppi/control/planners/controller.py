@@ -79,6 +79,11 @@ class Controller:
         control (e.g. (m/s)^-2); 0: none (the default, "smooth" too).
       filter_window, filter_order: the Savitzky-Golay filter of the plan, its odd window (>= 3;
         0: no filter, the default; "smooth": 9) and polynomial order (< window; default 2).
+      filter_guard: a cost margin >= 0, or None (the default): no guard. With a filter, the
+        cheaper of the plan as optimised and the step's least-cost sample replaces the filtered
+        plan at a step where its noise-free cost J is lower by more than the margin (a collision
+        that the filter's lag or the average would meet), and is applied and warm-starts in its
+        stead.
     Attributes: agent, predictor, objective (the last step's), diagnostics (the last step's),
       timer (the profile's hook, dcmppi.control.timer).
 
@@ -122,6 +127,7 @@ class Controller:
         change_cost=None,
         filter_window=None,
         filter_order=None,
+        filter_guard=None,
         **other,
     ):
         self.preset = choice("preset", "paper" if preset is None else preset, tuple(PRESETS))
@@ -158,6 +164,10 @@ class Controller:
             if self.filter_window
             else None
         )
+        guard = self.option("filter_guard", filter_guard, None)
+        if guard is not None:
+            guard = positive("filter_guard", guard, allow_zero=True)
+        self.filter_guard = guard
         self.predictor = predictor(
             N=self.N, dt=self.dt, robot_radius=self.robot_radius,
             max_speed=self.agent.max_speed, alpha=self.alpha, beta=self.beta, P=self.P,
@@ -176,6 +186,7 @@ class Controller:
         "agent", "robot_radius", "dt", "K", "N", "lambda_", "ess_target", "Sigma", "gamma",
         "alpha", "beta", "P", "seed", "perturbation", "resolution", "obstacle_margin",
         "threads", "prediction", "preset", "change_cost", "filter_window", "filter_order",
+        "filter_guard",
     )  # fmt: skip
 
     def option(self, name, value, default):
@@ -429,23 +440,36 @@ class Controller:
         weight = np.zeros(self.nu) if self._change_weight is None else self._change_weight
         return change_costs(u, np.asarray(previous, dtype=float), weight, j0, j1)
 
-    def smoothed(self, plan):
+    def smoothed(self, plan, x0, sample=None):
         """The plan (N, nu) through the Savitzky-Golay filter, the controls applied at the last
-        steps before it, projected into the agent's bounds; the plan itself without a filter."""
+        steps before it, projected into the agent's bounds; the plan itself without a filter.
+
+        With filter_guard: the cheaper of the plan as optimised and `sample` (N, nu) (the step's
+        least-cost sample, or None) where its noise-free cost from x0 (3,) is lower than the
+        filtered plan's by more than that margin (diagnostics.guarded says so).
+        """
         if self._filter is None:
             return plan
         history = np.array(self._applied).reshape(-1, self.nu)
         with self.timer("filter"):
-            return bound_rows(self.agent, savitzky_golay(plan, history, self._filter))
+            filtered = bound_rows(self.agent, savitzky_golay(plan, history, self._filter))
+        if self.filter_guard is None:
+            return filtered
+        with self.timer("guard"):
+            candidates = [filtered, plan] + ([] if sample is None else [sample])
+            _, J = self.rollout_costs(x0, np.stack(candidates, axis=2))
+        best = 1 + int(np.argmin(J[1:]))
+        self.diagnostics.guarded = bool(J[best] < J[0] - self.filter_guard)
+        return candidates[best] if self.diagnostics.guarded else filtered
 
-    def finish(self, plan):
+    def finish(self, plan, x0, sample=None):
         """Apply the plan's first controls and warm-start the next step by shifting it.
 
-        plan: (N, nu), filtered first when the planner has a filter (smoothed). Returns plan[0]
-        (nu,) in the agent's bounds (a weighted mean of bounded controls may leave them by a
-        rounding error).
+        plan: (N, nu) planned from the state x0 (3,), filtered first when the planner has a
+        filter (smoothed, which may apply `sample` (N, nu) instead). Returns plan[0] (nu,) in the
+        agent's bounds (a weighted mean of bounded controls may leave them by a rounding error).
         """
-        plan = self.smoothed(plan)
+        plan = self.smoothed(plan, x0, sample)
         self.U = shifted(plan)
         self.diagnostics.plan = plan
         return bound(self.agent, plan[0])

@@ -216,7 +216,7 @@ class TubeMPPI(MPPI):
         lam = self.temperature(S)  # the chosen solve's (S does not depend on it)
         with timer("update"):
             plan, w = mppi_update(self.U, eps, S, lam)
-        plan = self.smoothed(plan)  # the filter of the plan, when there is one
+        plan = self.smoothed(plan, z, self.U + eps[:, :, np.argmin(J)])  # when it has a filter
         self.record(eps, states, J, S)
         d = self.diagnostics
         d.weights, d.ess, d.lambda_ = w, effective_sample_size(w), lam

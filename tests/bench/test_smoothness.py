@@ -1,18 +1,25 @@
 """Smoothness and indecision per episode (the applied control's rate, the path's turn-sign
-changes, the task blocked's commitment to a side) on paths with known answers, and an episode's
-record of them."""
+changes, the task blocked's commitment to a side, the path's and the plans') on paths and plans
+with known answers, and an episode's record of them."""
+
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
+from dcmppi.bench.episodes import runner
 from dcmppi.bench.episodes.metrics import (
     SIDE_DEADBAND,
+    Diagnosis,
+    PlanSides,
     control_rates,
     indecision,
+    planned_side,
     side_commitment,
     turn_sign_changes,
 )
 from dcmppi.bench.episodes.runner import EpisodeSpec, run_episode
+from dcmppi.control.agents import make_agent
 
 DT = 0.1
 SMALL = {"K": 64, "N": 20}
@@ -121,3 +128,91 @@ def test_an_episode_records_smoothness_and_blocked_its_commitment():
     crossing = run_episode(spec)
     assert crossing["control_rate_linear"] > 0 and "commit_time" not in crossing
     assert "scene" not in crossing
+
+
+def side(xs, ys):
+    """planned_side of planned points (xs, ys) about the obstacle of `commitment`."""
+    states = np.column_stack([xs, ys, np.zeros(len(xs))])
+    return planned_side(states, [0.0, 0.0], [20.0, 0.0], [10.0, 0.0])
+
+
+def test_the_planned_side_is_where_the_plan_draws_level_with_the_centre():
+    x = np.linspace(6.0, 14.0, 41)  # level with the centre at x = 10, point 20
+    bump = 2.5 * np.exp(-((x - 10.0) ** 2))
+    assert side(x, bump) == 1 and side(x, -bump) == -1
+    assert side(x, np.where(x < 10.0, 3.0, -3.0)) == -1  # the first point level decides
+    assert side(x[:20], bump[:20]) == 0  # the horizon ends short of the centre
+    assert side(x, np.full(41, SIDE_DEADBAND / 2)) == 0  # within the deadband: no side
+    assert side(x, np.full(41, 2 * SIDE_DEADBAND)) == 1
+
+
+def sway(lateral, n=30):
+    """A holonomic plan at 1.5 m/s along +x that reaches `lateral` m to the left (right: < 0)
+    after half its steps and keeps it."""
+    u = np.zeros((n, 3))
+    u[:, 0] = 1.5
+    u[: n // 2, 1] = lateral / (n // 2 * DT)
+    return u
+
+
+def test_plan_sides_count_switches_of_the_plan_before_the_robot_draws_level():
+    sides = PlanSides([0.0, 0.0], [20.0, 0.0], [10.0, 0.0], DT)
+    agent = make_agent("holonomic")
+    plans = [
+        sway(1.0, n=10),  # step 0: 1.5 m ahead, short of the centre: no side
+        sway(1.0),  # steps 1, 2: left
+        sway(1.0),
+        sway(-1.0),  # step 3: right, kept
+        sway(-1.0),
+        sway(1.0),  # step 5: the robot has drawn level, not read
+    ]
+    xs = [2.0, 6.0, 6.1, 6.2, 6.3, 10.0]
+    for x, plan in zip(xs, plans, strict=True):
+        d = SimpleNamespace(plan=plan)
+        sides.read(SimpleNamespace(agent=agent, dt=DT, diagnostics=d), np.array([x, 0.0, 0.0]))
+    assert sides.sides == [0, 1, 1, -1, -1]
+    got = sides.result()
+    assert got["plan_side_switches"] == 1
+    assert got["plan_commit_time"] == pytest.approx(0.3)
+    assert got["plan_commit_delay"] == pytest.approx(0.2)  # first planned side at step 1
+    never = PlanSides([0.0, 0.0], [20.0, 0.0], [10.0, 0.0], DT)
+    never.read(SimpleNamespace(diagnostics=SimpleNamespace(plan=None)), np.zeros(3))
+    assert never.result() == {
+        "plan_commit_time": None,
+        "plan_commit_delay": None,
+        "plan_side_switches": 0,
+    }
+    # Tube-MPPI plans from its nominal state: 0.5 m left of the robot, the plan passes left
+    tube = PlanSides([0.0, 0.0], [20.0, 0.0], [10.0, 0.0], DT)
+    d = SimpleNamespace(plan=sway(-0.3), nominal_state=np.array([6.0, 0.5, 0.0]))
+    tube.read(SimpleNamespace(agent=agent, dt=DT, diagnostics=d), np.array([6.0, 0.0, 0.0]))
+    assert tube.sides == [1]
+
+
+def test_the_guard_share_is_read_only_where_the_controller_has_a_guard():
+    diagnosis = Diagnosis()
+    for guarded in (True, False, False, True):
+        d = SimpleNamespace(guarded=guarded)
+        diagnosis.read(SimpleNamespace(diagnostics=d, filter_guard=0.0), np.zeros(3))
+    assert diagnosis.result()["guard_share"] == 0.5
+    unguarded = Diagnosis()
+    d = SimpleNamespace(guarded=False)
+    unguarded.read(SimpleNamespace(diagnostics=d, filter_guard=None), np.zeros(3))
+    unguarded.read(SimpleNamespace(diagnostics=SimpleNamespace()), np.zeros(3))
+    assert unguarded.result()["guard_share"] is None
+
+
+def test_a_blocked_episode_records_the_plans_side_without_changing_them(monkeypatch):
+    spec = EpisodeSpec("blocked", "clustered", "control", 0, {}, SMALL)
+    got = run_episode(spec)
+    assert got["plan_side_switches"] >= 0 and got["plan_commit_time"] is not None
+    assert 0 <= got["plan_commit_delay"] <= got["plan_commit_time"]
+    # the horizon (2 s at 1 m/s) first reaches the centre 10 m ahead after 8 s
+    assert got["plan_commit_time"] >= 7.0
+    assert got["guard_share"] is None  # the paper's mode has no guard
+    monkeypatch.setattr(runner.Episode, "_plan_sides", lambda self: None)
+    assert run_episode(spec)["trace"] == got["trace"]  # reading the plans changes nothing
+    classical = EpisodeSpec("blocked", "orca", "none", 0, {"agent": "unicycle"}, {})
+    none = run_episode(classical)
+    assert none["plan_side_switches"] is None and none["plan_commit_time"] is None
+    assert none["side_switches"] is not None

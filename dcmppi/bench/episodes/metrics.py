@@ -28,7 +28,9 @@ class Diagnosis:
     set; fallback: whether `chosen == -1` (Alg. 1 over all samples) where `labels` is set;
     deviation: Tube-MPPI's real-to-nominal position distance at the start of the step, before
     any reset (`nominal_deviation`; else |x[:2] - nominal_state[:2]| where `nominal_state` is
-    set).
+    set); guarded: whether the smooth preset's guard replaced the filtered plan by the plan as
+    optimised or the least-cost sample (`guarded`), where the controller has a guard
+    (`filter_guard` set).
     """
 
     def __init__(self):
@@ -36,6 +38,7 @@ class Diagnosis:
         self.clusters: list[int] = []
         self.fallback: list[bool] = []
         self.deviation: list[float] = []
+        self.guarded: list[bool] = []
 
     def read(self, controller, state: np.ndarray) -> None:
         """Read the diagnostics of the step that `controller` just planned from `state` (3,)."""
@@ -53,9 +56,14 @@ class Diagnosis:
             self.deviation.append(float(deviation))
         elif nominal is not None:
             self.deviation.append(float(np.hypot(*(state[:2] - np.asarray(nominal)[:2]))))
+        guarded = getattr(d, "guarded", None)
+        guard = getattr(controller, "filter_guard", None)
+        if isinstance(guarded, bool | np.bool_) and guard is not None:
+            self.guarded.append(bool(guarded))
 
     def result(self) -> dict:
-        """ess_mean, clusters_mean, fallback_share, tube_deviation_p95 (None: not recorded)."""
+        """ess_mean, clusters_mean, fallback_share, tube_deviation_p95, guard_share (the share
+        of the steps the guard replaced the filtered plan) (None: not recorded)."""
 
         def mean(xs):
             return float(np.mean(xs)) if xs else None
@@ -67,6 +75,7 @@ class Diagnosis:
             "tube_deviation_p95": float(np.percentile(self.deviation, 95))
             if self.deviation
             else None,
+            "guard_share": mean(self.guarded),
         }
 
 
@@ -328,23 +337,104 @@ def side_commitment(path, dt: float, start, goal, centre) -> dict:
     left the line). commit_time and commit_delay are None if the robot never leaves the
     deadband (driving straight into the obstacle).
     """
-    p = np.asarray(path, dtype=np.float64)
-    e = np.asarray(goal, dtype=np.float64) - np.asarray(start, dtype=np.float64)
-    e = e / np.hypot(*e)
-    rel = p - np.asarray(centre, dtype=np.float64)
-    along = rel @ e
-    lateral = e[0] * rel[:, 1] - e[1] * rel[:, 0]
+    along, lateral = _line_frame(path, start, goal, centre)
     level = np.flatnonzero(along >= 0)
-    end = level[0] + 1 if level.size else len(p)
+    end = level[0] + 1 if level.size else len(along)
     side = np.where(np.abs(lateral[:end]) > SIDE_DEADBAND, np.sign(lateral[:end]), 0.0)
+    commit_time, commit_delay, switches = _commitment(side, dt)
+    return {"commit_time": commit_time, "commit_delay": commit_delay, "side_switches": switches}
+
+
+def _line_frame(points, start, goal, centre) -> tuple[np.ndarray, np.ndarray]:
+    """Progress along the start-goal direction and lateral offset (left +) of points (n, >= 2)
+    relative to centre (2,): each (n,)."""
+    p = np.asarray(points, dtype=np.float64)[:, :2]
+    e = np.asarray(goal, dtype=np.float64)[:2] - np.asarray(start, dtype=np.float64)[:2]
+    e = e / np.hypot(*e)
+    rel = p - np.asarray(centre, dtype=np.float64)[:2]
+    return rel @ e, e[0] * rel[:, 1] - e[1] * rel[:, 0]
+
+
+def _commitment(side, dt: float) -> tuple[float | None, float | None, int]:
+    """(commit time, commit delay, switches) of a series of sides (n,) (+1, -1; 0: none) dt
+    apart, as `side_commitment` defines them."""
+    side = np.asarray(side)
     decided = np.flatnonzero(side)
     if not decided.size:
-        return {"commit_time": None, "commit_delay": None, "side_switches": 0}
+        return None, None, 0
     s = side[decided]
     changes = np.flatnonzero(s[1:] != s[:-1])
     commit = decided[changes[-1] + 1] if changes.size else decided[0]
-    return {
-        "commit_time": float(commit * dt),
-        "commit_delay": float((commit - decided[0]) * dt),
-        "side_switches": int(changes.size),
-    }
+    return float(commit * dt), float((commit - decided[0]) * dt), int(changes.size)
+
+
+def planned_side(states, start, goal, centre) -> int:
+    """The side of a single obstacle on which a planned path passes it: +1 left, -1 right
+    (as `side_commitment`), 0 none.
+
+    states (N + 1, >= 2): the plan rolled out from the step's state; start, goal (2,) and
+    centre (2,) as `side_commitment`'s. The side is that of the first planned point whose
+    progress along the start-goal direction reaches the centre's (where the plan draws level
+    with the obstacle); none where no point does within the horizon, or where that point lies
+    within SIDE_DEADBAND of the line through the centre.
+    """
+    along, lateral = _line_frame(states, start, goal, centre)
+    level = np.flatnonzero(along >= 0)
+    if not level.size or abs(lateral[level[0]]) <= SIDE_DEADBAND:
+        return 0
+    return 1 if lateral[level[0]] > 0 else -1
+
+
+class PlanSides:
+    """The side of a single obstacle that a controller's plan takes, step by step: the
+    decision, which control noise cannot fake (the executed path's side, `side_commitment`,
+    reads the robot's wobble too).
+
+    At every control step before the robot draws level with the centre (its progress along
+    the start-goal direction reaches the centre's; later steps are not read), the plan
+    (`diagnostics.plan`, (N, nu)) is rolled out with the controller's agent
+    (`agent.rollout_one`) from the state it was planned from (the step's state; Tube-MPPI's
+    nominal state, `diagnostics.nominal_state`, where it records one) and `planned_side` gives
+    its side (0 where the step has no plan).
+
+    start, goal (2,), centre (2,): the task's; dt [s]: the control period.
+    """
+
+    def __init__(self, start, goal, centre, dt: float):
+        self.start, self.goal, self.centre, self.dt = start, goal, centre, dt
+        self.sides: list[int] = []
+        self.level = False
+
+    def read(self, controller, state: np.ndarray) -> None:
+        """Read the plan of the step that `controller` just planned from `state` (3,)."""
+        if self.level:
+            return
+        along, _ = _line_frame(np.asarray(state)[None], self.start, self.goal, self.centre)
+        if along[0] >= 0:
+            self.level = True
+            return
+        d = getattr(controller, "diagnostics", None)
+        plan = getattr(d, "plan", None)
+        if plan is None:
+            self.sides.append(0)
+            return
+        nominal = getattr(d, "nominal_state", None)
+        x0 = np.asarray(state if nominal is None else nominal, dtype=np.float64)
+        states = controller.agent.rollout_one(x0, plan, controller.dt)
+        self.sides.append(planned_side(states, self.start, self.goal, self.centre))
+
+    def result(self) -> dict:
+        """plan_commit_time [s] (from the episode's start until the step from which the plan
+        keeps its side), plan_commit_delay [s] (from the first step with a planned side until
+        then) and plan_side_switches (changes of the planned side, steps without one skipped),
+        as `side_commitment` defines them for the path; the times None where no plan took a
+        side."""
+        commit_time, commit_delay, switches = _commitment(self.sides, self.dt)
+        return {
+            "plan_commit_time": commit_time,
+            "plan_commit_delay": commit_delay,
+            "plan_side_switches": switches,
+        }
+
+
+NO_PLAN_SIDES = dict.fromkeys(("plan_commit_time", "plan_commit_delay", "plan_side_switches"))

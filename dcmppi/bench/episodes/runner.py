@@ -18,8 +18,10 @@ from collections.abc import Callable
 import numpy as np
 
 from dcmppi.bench.episodes.metrics import (
+    NO_PLAN_SIDES,
     Diagnosis,
     FieldMetrics,
+    PlanSides,
     control_rates,
     indecision,
     side_commitment,
@@ -278,7 +280,9 @@ class Episode:
     (3,) robot poses x, y, yaw, the start's and one per step), path (array (steps + 1, 2) of
     their positions), actions (the controller's action (nu,) of every step, before any control
     noise of the task), ctrl_s and env_s (seconds per step in the controller and in env.step),
-    diagnosis (`Diagnosis` of every step), metrics (`FieldMetrics` of every step).
+    diagnosis (`Diagnosis` of every step), metrics (`FieldMetrics` of every step), plan_sides
+    (in the task blocked, the side of the obstacle each step's plan takes, `PlanSides`, for
+    controllers that plan; else None).
     """
 
     def __init__(self, spec: EpisodeSpec):
@@ -297,6 +301,7 @@ class Episode:
         self.actions: list[np.ndarray] = []
         self.diagnosis = Diagnosis()
         self.metrics = FieldMetrics(self.env)
+        self.plan_sides = self._plan_sides()
 
     @property
     def path(self) -> np.ndarray:
@@ -331,6 +336,8 @@ class Episode:
         self.env_s.append(t2 - t1)
         self.actions.append(action)
         self.diagnosis.read(self.controller, observation["robot_pose"])
+        if self.plan_sides is not None:
+            self.plan_sides.read(self.controller, observation["robot_pose"])
         self.poses.append(self.time_step.observation["robot_pose"].copy())
         self.metrics.read(self.env.physics)
 
@@ -392,16 +399,37 @@ class Episode:
             **indecision(path, dt, length),
         }
 
-    def _commitment(self, path) -> dict:
-        """In the task `blocked` (one obstacle between start and goal): commit_time [s],
-        commit_delay [s] and side_switches of `side_commitment`; else nothing."""
+    def _blocked(self) -> bool:
+        """Whether the task is `blocked` (one obstacle between start and goal)."""
         from dcmppi.tasks.two_valley import Blocked
 
-        if not isinstance(self.env.task, Blocked):
+        return isinstance(self.env.task, Blocked)
+
+    def _plan_sides(self) -> PlanSides | None:
+        """In the task blocked, a `PlanSides` for a controller that plans (not a classical
+        one, whose drawn plan is its command held); else None."""
+        from dcmppi.control.planners.classical import Classical
+
+        if not self._blocked() or isinstance(self.controller, Classical):
+            return None
+        world = self.env.task.world
+        dt = self.env.control_timestep()
+        return PlanSides(world.start[:2], world.goal[:2], world.static[0, :2], dt)
+
+    def _commitment(self, path) -> dict:
+        """In the task `blocked` (one obstacle between start and goal): commit_time [s],
+        commit_delay [s] and side_switches of the path (`side_commitment`), and
+        plan_commit_time [s], plan_commit_delay [s] and plan_side_switches of the plans
+        (`PlanSides`; None for a controller without a plan); else nothing."""
+        if not self._blocked():
             return {}
         world = self.env.task.world
         dt = self.env.control_timestep()
-        return side_commitment(path, dt, world.start[:2], world.goal, world.static[0, :2])
+        planned = NO_PLAN_SIDES if self.plan_sides is None else self.plan_sides.result()
+        return {
+            **side_commitment(path, dt, world.start[:2], world.goal, world.static[0, :2]),
+            **planned,
+        }
 
     def _human(self, path) -> dict:
         """Where the robot replaces a recorded person (the task `replay`, its `human`): scene
@@ -457,8 +485,10 @@ def run_episode(
       robot's pose at every control instant, see `encode_trace`; `dcmppi.bench.runs.replay` compares
       it); the smoothness metrics control_rate_linear [m/s^2], control_rate_angular
       [rad/s^2], turn_sign_changes, indecision_per_m, indecision_per_s (see
-      `Episode._smoothness`); in the task `blocked` also commit_time [s], commit_delay [s] and
-      side_switches (`Episode._commitment`); where the robot replaces a recorded person (the
+      `Episode._smoothness`); guard_share (`Diagnosis`); in the task `blocked` also
+      commit_time [s], commit_delay [s] and side_switches of the path, and plan_commit_time
+      [s], plan_commit_delay [s] and plan_side_switches of the plans (`Episode._commitment`);
+      where the robot replaces a recorded person (the
       task `replay`) also scene, recording, person, human_time, human_path_length and
       frame_path_length (see `Episode._human`).
     """

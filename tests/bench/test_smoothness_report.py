@@ -1,5 +1,5 @@
-"""The smoothness, commitment and per-scene tables of a report, and the schema 6 columns of an
-older database: read as NULL, added when it is opened to write, its rows kept."""
+"""The smoothness, commitment and per-scene tables of a report, and the columns schemas 6 and 7
+added in an older database: read as NULL, added when it is opened to write, its rows kept."""
 
 import math
 import os
@@ -29,8 +29,11 @@ def crowds():
     return folder
 
 
+SINCE_5 = (*ADDED[6], *ADDED[7])  # the columns schema 5 lacks
+
+
 def _row(label, i, **values):
-    base = dict.fromkeys(ADDED[SCHEMA_VERSION])
+    base = dict.fromkeys(SINCE_5)
     return {
         "noise": "none",
         "label": label,
@@ -64,7 +67,31 @@ def test_the_smoothness_table_shows_the_rates_and_blocked_commitment():
     assert s["settled"][0] == pytest.approx(100 / 3)
     assert s["never_switched"][0] == pytest.approx(100 / 3)
     assert "| Commit time [s] |" in smoothness_table(rows, exp)
-    old = [{**r, **dict.fromkeys(ADDED[SCHEMA_VERSION])} for r in rows]
+    assert "Plan:" not in smoothness_table(rows, exp) and "Guard" not in smoothness_table(rows, exp)
+    planned = [(4.0, 0.0, 0), (5.0, 0.5, 1), (6.0, 2.0, 2)]  # prompt, settled, hesitant
+    for r, (t, d, k) in zip(rows, planned, strict=True):
+        r.update(plan_commit_time=t, plan_commit_delay=d, plan_side_switches=k, guard_share=0.2)
+    s = smoothness(rows)[("none", "mppi")]
+    assert s["planned"] == 3 and s["plan_commit_time"][0] == pytest.approx(5.0)
+    assert s["plan_committed"][0] == 0.0  # none within 1 s of the start
+    assert s["plan_settled"][0] == pytest.approx(200 / 3)
+    assert s["plan_never_switched"][0] == pytest.approx(100 / 3)
+    assert s["guard_share"][0] == pytest.approx(20.0)
+    text = smoothness_table(rows, exp)
+    head = [cell.strip() for cell in text.splitlines()[0].split("|")]
+    assert head[-5:-1] == [
+        "Plan: commit time [s]",
+        "Plan: committed within 1 s %",
+        "Plan: settled within 1 s of the first side %",
+        "Plan: never switched %",
+    ]
+    cells = [cell.strip() for cell in text.splitlines()[2].split("|")]
+    assert cells[-3].startswith("66.7 [") and cells[-2].startswith("33.3 [")
+    assert s["committed"][0] == pytest.approx(100 / 3)  # the path's, unchanged
+    classical = [{**r, "plan_side_switches": None, "guard_share": None} for r in rows]
+    assert smoothness(classical)[("none", "mppi")]["plan_settled"] is None
+    assert "Plan:" not in smoothness_table(classical, exp)
+    old = [{**r, **dict.fromkeys(SINCE_5)} for r in rows]
     assert smoothness_table(old, exp) == ""  # an older database: no table
 
 
@@ -92,8 +119,8 @@ def test_replays_per_scene_ratios_and_freezing():
     assert replay_scenes([_row("dc", 0)]) == {} and replay_table([_row("dc", 0)], exp) == ""
 
 
-def _old_database(tmp_path):
-    """A complete static database, then made as schema 5 wrote it."""
+def _old_database(tmp_path, schema=5):
+    """A complete static database, then made as `schema` (5 or 6) wrote it."""
     exp = load_experiment("static").select(2, ("mppi",), ("none",))
     path = tmp_path / "old.db"
     db = ResultsDB(path, exp.config())
@@ -106,9 +133,10 @@ def _old_database(tmp_path):
     with sqlite3.connect(path) as c:
         before = c.execute("SELECT env_index, outcome, path_length, jerk_mean FROM episodes")
         before = before.fetchall()
-        for name in ADDED[6]:
-            c.execute(f"ALTER TABLE episodes DROP COLUMN {name}")
-        c.execute("UPDATE meta SET value = '5' WHERE key = 'schema'")
+        for version in range(schema + 1, SCHEMA_VERSION + 1):
+            for name in ADDED[version]:
+                c.execute(f"ALTER TABLE episodes DROP COLUMN {name}")
+        c.execute("UPDATE meta SET value = ? WHERE key = 'schema'", (str(schema),))
     return exp, path, before
 
 
@@ -123,12 +151,35 @@ def test_a_schema_5_database_reports_and_upgrades_keeping_its_rows(tmp_path):
     old.close()
     ResultsDB(path, exp.config()).close()  # opening to write adds the columns
     with sqlite3.connect(path) as c:
-        assert c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone() == ("6",)
+        assert c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone() == ("7",)
         columns = {r[1] for r in c.execute("PRAGMA table_info(episodes)")}
-        assert columns >= set(ADDED[6])
+        assert columns >= set(SINCE_5)
         kept = c.execute("SELECT env_index, outcome, path_length, jerk_mean FROM episodes")
         assert kept.fetchall() == before
-    assert SCHEMA_VERSION == 6
+    assert SCHEMA_VERSION == 7
+
+
+def test_a_schema_6_database_reports_its_path_sides_and_upgrades(tmp_path):
+    exp, path, before = _old_database(tmp_path, schema=6)
+    text = write_report(path, tmp_path / "out", plots=False)  # read-only: nothing converted
+    assert "| Commit time [s] |" in text and "Plan:" not in text
+    with sqlite3.connect(path) as c:
+        assert c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone() == ("6",)
+    old = ResultsDB(path)
+    rows = old.rows()
+    old.close()
+    assert all(r["plan_side_switches"] is None and r["guard_share"] is None for r in rows)
+    assert all(r["side_switches"] is not None for r in rows)
+    db = ResultsDB(path, exp.config())  # opening to write adds the columns, keeps the rows
+    spec = EpisodeSpec("blocked", "mppi", "none", 2, {}, SMALL)
+    db.record(("none", "mppi", 2), spec, run_episode(spec))
+    rows = db.rows()
+    db.close()
+    assert [r["plan_side_switches"] is None for r in rows] == [True, True, False]
+    with sqlite3.connect(path) as c:
+        assert c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone() == ("7",)
+        kept = c.execute("SELECT env_index, outcome, path_length, jerk_mean FROM episodes")
+        assert kept.fetchall()[:2] == before
 
 
 def test_a_tiny_replay_run_reports_its_scenes(tmp_path):

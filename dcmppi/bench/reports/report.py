@@ -91,6 +91,13 @@ COMMIT_COLUMNS = (  # the task blocked's
     (f"Settled within {COMMIT_WITHIN:g} s of leaving the line %", "settled", 1),
     ("Never switched %", "never_switched", 1),
 )
+PLAN_COMMIT_COLUMNS = (  # the side of the task blocked's obstacle that the plans take
+    ("Plan: commit time [s]", "plan_commit_time", 2),
+    (f"Plan: committed within {COMMIT_WITHIN:g} s %", "plan_committed", 1),
+    (f"Plan: settled within {COMMIT_WITHIN:g} s of the first side %", "plan_settled", 1),
+    ("Plan: never switched %", "plan_never_switched", 1),
+)
+GUARD_COLUMN = ("Guard replaced the filtered plan, % of steps", "guard_share", 1)
 
 SMOOTHNESS_NOTE = (
     "Means over episodes with 95 % percentile-bootstrap intervals. Jerk: the robot's planar "
@@ -110,6 +117,22 @@ COMMIT_NOTE = (
     f"{COMMIT_WITHIN:g} s; settled: the side kept within {COMMIT_WITHIN:g} s of first "
     "taking one; never switched: took a side and kept it. Rates in % of the episodes with "
     "95 % Wilson intervals; an episode that never took a side counts as none."
+)
+PLAN_COMMIT_NOTE = (
+    "Plan: the same of the side the controller's plan takes, which control noise cannot fake "
+    "(the robot's wobble crosses the line's deadband): at each step until the robot draws "
+    "level with the centre, the step's plan is rolled out from the state it was planned from "
+    "and its side is the robot's side (as above) at the first planned point level with the "
+    "centre; no side where the plan does not reach level within its horizon. Commit time: from "
+    "the start until the planned side it keeps (it cannot come before the horizon reaches the "
+    "obstacle); settled: kept within "
+    f"{COMMIT_WITHIN:g} s of the first planned side. Rates over the episodes of controllers "
+    "that plan ('-': the classical ones)."
+)
+GUARD_NOTE = (
+    "Guard: the share of the steps at which the filter's guard applied the plan as optimised "
+    "(or the least-cost sample) instead of the filtered plan (a mean over episodes, '-' for a "
+    "controller without a guard)."
 )
 REPLAY_NOTE = (
     "Per scene of the recorded people the robot replaced (the task replay), and over all "
@@ -235,15 +258,20 @@ def metrics_table(rows: list[dict], exp: Experiment) -> str:
 
 
 def smoothness_table(rows: list[dict], exp: Experiment) -> str:
-    """Smoothness per (noise, row) with 95 % intervals (see `smoothness`), with the task
-    blocked's commitment columns where episodes record them; '' where no episode records the
-    control rate or indecision (an older database)."""
+    """Smoothness per (noise, row) with 95 % intervals (see `smoothness`), with the guard's
+    share and the task blocked's commitment columns, the path's and the plans', where episodes
+    record them; '' where no episode records the control rate or indecision (an older
+    database)."""
     stats = smoothness(rows)
     if not any(s[key] is not None for s in stats.values() for _, key, _ in SMOOTHNESS_COLUMNS[1:]):
         return ""
     columns = SMOOTHNESS_COLUMNS
+    if any(s["guard_share"] is not None for s in stats.values()):
+        columns += (GUARD_COLUMN,)
     if any(s["blocked"] for s in stats.values()):
         columns += COMMIT_COLUMNS
+    if any(s["planned"] for s in stats.values()):
+        columns += PLAN_COMMIT_COLUMNS
     return _interval_table(stats, rows, exp, columns)
 
 
@@ -724,6 +752,8 @@ def _markdown(data: Loaded, tables: dict, warning: str, links: dict | None) -> l
     several = len(data.paths) > 1
     scores, smooth, replays = tables["scores"], tables["smoothness"], tables["replay"]
     commit = [COMMIT_NOTE, ""] if COMMIT_COLUMNS[0][0] in smooth else []
+    commit += [PLAN_COMMIT_NOTE, ""] if PLAN_COMMIT_COLUMNS[0][0] in smooth else []
+    commit += [GUARD_NOTE, ""] if GUARD_COLUMN[0] in smooth else []
     return [
         f"# dcmppi report: {exp.name} ({exp.task})",
         "",

@@ -35,7 +35,7 @@ import tempfile
 import time
 from pathlib import Path
 
-SCHEMA_VERSION = 6
+SCHEMA_VERSION = 7
 # the crowd-navigation field's metrics (dcmppi.bench.episodes.metrics.FieldMetrics)
 FIELD_METRICS = (
     "success",
@@ -60,10 +60,18 @@ SMOOTHNESS = (
     "commit_delay",
     "side_switches",
 )
+# the side of the task blocked's obstacle that the plans take, and the smooth preset's guard
+PLANNED = ("plan_commit_time", "plan_commit_delay", "plan_side_switches", "guard_share")
 # a replay's recorded person (the task replay: dcmppi.bench.episodes.runner.Episode._human)
 HUMAN = ("scene", "recording", "person", "human_time", "human_path_length", "frame_path_length")
 # columns each schema version added
-ADDED = {3: ("nav_score",), 4: FIELD_METRICS, 5: REPLAY, 6: ("goal_distance", *SMOOTHNESS, *HUMAN)}
+ADDED = {
+    3: ("nav_score",),
+    4: FIELD_METRICS,
+    5: REPLAY,
+    6: ("goal_distance", *SMOOTHNESS, *HUMAN),
+    7: PLANNED,
+}
 
 COLUMNS = (
     # key
@@ -101,6 +109,10 @@ COLUMNS = (
     ("commit_time", "REAL"),  # [s] from the start until the side it keeps
     ("commit_delay", "REAL"),  # [s] from the first side taken until the side it keeps
     ("side_switches", "INTEGER"),  # changes of side after the first
+    # the same of the side each step's plan takes (NULL before schema 7, and without a plan)
+    ("plan_commit_time", "REAL"),  # [s] from the start until the planned side it keeps
+    ("plan_commit_delay", "REAL"),  # [s] from the first planned side until the side it keeps
+    ("plan_side_switches", "INTEGER"),  # changes of the planned side after the first
     # pedestrians (moving obstacles); NULL in worlds without them
     ("min_ped_gap", "REAL"),  # minimum surface distance [m]
     ("personal_space_share", "REAL"),  # share of control instants with one within 0.5 m
@@ -123,6 +135,7 @@ COLUMNS = (
     ("clusters_mean", "REAL"),
     ("fallback_share", "REAL"),
     ("tube_deviation_p95", "REAL"),
+    ("guard_share", "REAL"),  # steps the filter's guard replaced the plan (NULL: no guard)
     # where the episode ended, and how it got there (replay compares them)
     ("final_x", "REAL"),
     ("final_y", "REAL"),

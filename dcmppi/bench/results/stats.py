@@ -176,12 +176,17 @@ COMMIT_WITHIN = 1.0  # [s] the task blocked: commitment to a side this soon coun
 def smoothness(rows: list[dict]) -> dict[tuple[str, str], dict]:
     """Smoothness and indecision per (noise, row label) over its finished episodes: `episodes`;
     per column of SMOOTHNESS (mean, lo, hi, n) with the bootstrap interval of the mean over the
-    episodes with a value (None: none has). Where episodes record a side of the obstacle (the
-    task blocked: side_switches not NULL; `blocked` counts them, else 0): commit_time (mean,
-    lo, hi, n) over the episodes that took a side; and (pct, lo, hi) with Wilson intervals over
-    the blocked episodes: committed (commit_time <= COMMIT_WITHIN), settled (commit_delay <=
-    COMMIT_WITHIN: it kept a side within that long of first taking one), never_switched (took
-    a side and never changed it). An episode that never took a side counts as none of these."""
+    episodes with a value (None: none has); guard_share: the same in % (None: no guard).
+
+    Where episodes record a side of the obstacle (the task blocked: side_switches not NULL;
+    `blocked` counts them, else 0): commit_time (mean, lo, hi, n) over the episodes that took a
+    side; and (pct, lo, hi) with Wilson intervals over the blocked episodes: committed
+    (commit_time <= COMMIT_WITHIN), settled (commit_delay <= COMMIT_WITHIN: it kept a side
+    within that long of first taking one), never_switched (took a side and never changed it).
+    An episode that never took a side counts as none of these. The same of the side the plans
+    take, over the episodes that record it (plan_side_switches not NULL: a controller that
+    plans; `planned` counts them): plan_commit_time, plan_committed, plan_settled and
+    plan_never_switched."""
     groups = finished_by_row(rows)
     out = {}
     for key, ok in groups.items():
@@ -189,19 +194,33 @@ def smoothness(rows: list[dict]) -> dict[tuple[str, str], dict]:
         for column in SMOOTHNESS:
             xs = [r[column] for r in ok if r.get(column) is not None]
             s[column] = (mean(xs), *bootstrap_mean(xs), len(xs)) if xs else None
-        sided = [r for r in ok if r.get("side_switches") is not None]
-        took = [r for r in sided if r.get("commit_time") is not None]
-        n = len(sided)
-        s["blocked"] = n
-        times = [r["commit_time"] for r in took]
-        s["commit_time"] = (mean(times), *bootstrap_mean(times), len(times)) if times else None
-        s["committed"] = (
-            rate(sum(r["commit_time"] <= COMMIT_WITHIN for r in took), n) if n else None
-        )
-        s["settled"] = rate(sum(r["commit_delay"] <= COMMIT_WITHIN for r in took), n) if n else None
-        s["never_switched"] = rate(sum(r["side_switches"] == 0 for r in took), n) if n else None
-        out[key] = s
+        guard = [100 * r["guard_share"] for r in ok if r.get("guard_share") is not None]
+        s["guard_share"] = (mean(guard), *bootstrap_mean(guard), len(guard)) if guard else None
+        s["blocked"], sides = _sides(ok, "")
+        s["planned"], plan_sides = _sides(ok, "plan_")
+        out[key] = {**s, **sides, **plan_sides}
     return out
+
+
+def _sides(ok: list[dict], prefix: str) -> tuple[int, dict]:
+    """The episodes of `ok` that record a side (column prefix + "side_switches" not NULL) and
+    smoothness's commit_time, committed, settled and never_switched of them, each key with
+    `prefix`."""
+    sided = [r for r in ok if r.get(prefix + "side_switches") is not None]
+    took = [r for r in sided if r.get(prefix + "commit_time") is not None]
+    n = len(sided)
+    times = [r[prefix + "commit_time"] for r in took]
+    prompt = sum(r[prefix + "commit_time"] <= COMMIT_WITHIN for r in took)
+    settled = sum(r[prefix + "commit_delay"] <= COMMIT_WITHIN for r in took)
+    kept = sum(r[prefix + "side_switches"] == 0 for r in took)
+    return n, {
+        prefix + "commit_time": (mean(times), *bootstrap_mean(times), len(times))
+        if times
+        else None,
+        prefix + "committed": rate(prompt, n) if n else None,
+        prefix + "settled": rate(settled, n) if n else None,
+        prefix + "never_switched": rate(kept, n) if n else None,
+    }
 
 
 FREEZE_MARGIN = 1.0  # [m] a timeout within this of the goal region froze near the goal

@@ -130,10 +130,10 @@ def test_an_episode_records_smoothness_and_blocked_its_commitment():
     assert "scene" not in crossing
 
 
-def side(xs, ys):
+def side(xs, ys, reach=0.0):
     """planned_side of planned points (xs, ys) about the obstacle of `commitment`."""
     states = np.column_stack([xs, ys, np.zeros(len(xs))])
-    return planned_side(states, [0.0, 0.0], [20.0, 0.0], [10.0, 0.0])
+    return planned_side(states, [0.0, 0.0], [20.0, 0.0], [10.0, 0.0], reach)
 
 
 def test_the_planned_side_is_where_the_plan_draws_level_with_the_centre():
@@ -144,6 +144,8 @@ def test_the_planned_side_is_where_the_plan_draws_level_with_the_centre():
     assert side(x[:20], bump[:20]) == 0  # the horizon ends short of the centre
     assert side(x, np.full(41, SIDE_DEADBAND / 2)) == 0  # within the deadband: no side
     assert side(x, np.full(41, 2 * SIDE_DEADBAND)) == 1
+    assert side(x, 0.5 * bump, reach=2.3) == 0  # 1.25 m: through the disc, no side
+    assert side(x, bump, reach=2.3) == 1 and side(x, -bump, reach=2.3) == -1
 
 
 def sway(lateral, n=30):

@@ -368,19 +368,21 @@ def _commitment(side, dt: float) -> tuple[float | None, float | None, int]:
     return float(commit * dt), float((commit - decided[0]) * dt), int(changes.size)
 
 
-def planned_side(states, start, goal, centre) -> int:
+def planned_side(states, start, goal, centre, reach: float = 0.0) -> int:
     """The side of a single obstacle on which a planned path passes it: +1 left, -1 right
     (as `side_commitment`), 0 none.
 
     states (N + 1, >= 2): the plan rolled out from the step's state; start, goal (2,) and
-    centre (2,) as `side_commitment`'s. The side is that of the first planned point whose
-    progress along the start-goal direction reaches the centre's (where the plan draws level
-    with the obstacle); none where no point does within the horizon, or where that point lies
-    within SIDE_DEADBAND of the line through the centre.
+    centre (2,) as `side_commitment`'s; reach [m]: the obstacle's radius plus the robot's (0:
+    the line's deadband alone). The side is that of the first planned point whose progress
+    along the start-goal direction reaches the centre's (where the plan draws level with the
+    obstacle); none where no point does within the horizon, or where that point lies within
+    max(SIDE_DEADBAND, reach) of the line through the centre: a plan that runs into the
+    obstacle passes it on neither side.
     """
     along, lateral = _line_frame(states, start, goal, centre)
     level = np.flatnonzero(along >= 0)
-    if not level.size or abs(lateral[level[0]]) <= SIDE_DEADBAND:
+    if not level.size or abs(lateral[level[0]]) <= max(SIDE_DEADBAND, reach):
         return 0
     return 1 if lateral[level[0]] > 0 else -1
 
@@ -397,11 +399,13 @@ class PlanSides:
     nominal state, `diagnostics.nominal_state`, where it records one) and `planned_side` gives
     its side (0 where the step has no plan).
 
-    start, goal (2,), centre (2,): the task's; dt [s]: the control period.
+    start, goal (2,), centre (2,): the task's; dt [s]: the control period; reach [m]: the
+    obstacle's radius plus the robot's (`planned_side`).
     """
 
-    def __init__(self, start, goal, centre, dt: float):
+    def __init__(self, start, goal, centre, dt: float, reach: float = 0.0):
         self.start, self.goal, self.centre, self.dt = start, goal, centre, dt
+        self.reach = reach
         self.sides: list[int] = []
         self.level = False
 
@@ -421,7 +425,7 @@ class PlanSides:
         nominal = getattr(d, "nominal_state", None)
         x0 = np.asarray(state if nominal is None else nominal, dtype=np.float64)
         states = controller.agent.rollout_one(x0, plan, controller.dt)
-        self.sides.append(planned_side(states, self.start, self.goal, self.centre))
+        self.sides.append(planned_side(states, self.start, self.goal, self.centre, self.reach))
 
     def result(self) -> dict:
         """plan_commit_time [s] (from the episode's start until the step from which the plan

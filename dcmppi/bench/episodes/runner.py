@@ -407,14 +407,17 @@ class Episode:
 
     def _plan_sides(self) -> PlanSides | None:
         """In the task blocked, a `PlanSides` for a controller that plans (not a classical
-        one, whose drawn plan is its command held); else None."""
+        one, whose drawn plan is its command held): a plan that draws level with the centre
+        within the obstacle's radius plus the robot's runs into it and takes no side; else
+        None."""
         from dcmppi.control.planners.classical import Classical
 
         if not self._blocked() or isinstance(self.controller, Classical):
             return None
         world = self.env.task.world
         dt = self.env.control_timestep()
-        return PlanSides(world.start[:2], world.goal[:2], world.static[0, :2], dt)
+        reach = float(world.static[0, 2]) + self.env.task.robot_radius  # hitting it: no side
+        return PlanSides(world.start[:2], world.goal[:2], world.static[0, :2], dt, reach)
 
     def _commitment(self, path) -> dict:
         """In the task `blocked` (one obstacle between start and goal): commit_time [s],

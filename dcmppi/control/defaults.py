@@ -38,11 +38,13 @@ def omega_max(v: float = V, r_min: float = R_MIN) -> float:
 # parameters win). "paper": the paper's algorithms, every default above (the default preset).
 # "smooth": plans a robot can follow (docs/design.md, Smoothness), chosen on environments outside
 # the experiments' and the same for every planner: the temperature chosen each step at an ESS of
-# 5 % of K, nav2's Savitzky-Golay filter of the plan (9 steps, quadratic) and, for the clustered
-# planners, hysteresis of 50 cost units (about 1 m less progress at every state) in the choice of
-# cluster. Tried and left out: a change cost of 3 / Sigma stalled the robot (corridor episodes
-# twice as long), 0.3 / Sigma smoothed little more; without the least-cost sample's own cluster
-# dc collided more in every crowd.
+# 5 % of K, nav2's Savitzky-Golay filter of the plan (9 steps, quadratic), for the clustered
+# planners hysteresis of 50 cost units (about 1 m less progress at every state) in the choice of
+# cluster, and a guard of the same margin that applies the unfiltered plan (or mppi's and tube's
+# least-cost sample) where the filtered one costs more by that much. Tried and left out: a change
+# cost of 3 / Sigma stalled the robot (corridor episodes twice as long), 0.3 / Sigma smoothed
+# little more; without the least-cost sample's own cluster dc collided more in every crowd; guard
+# margins of 10 kept the jerk near the paper's, 100 let square-orca's collisions rise.
 PRESETS = {
     "paper": {},
     "smooth": {
@@ -51,5 +53,6 @@ PRESETS = {
         "filter_window": 9,
         "filter_order": 2,
         "hysteresis": 50.0,
+        "filter_guard": 50.0,
     },
 }

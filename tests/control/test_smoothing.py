@@ -165,6 +165,7 @@ def test_smooth_preset_sets_its_options_and_explicit_values_win():
     )
     assert ctrl.best_sample_cluster  # the least-cost sample's cluster stays
     assert ctrl.hysteresis == smooth["hysteresis"] > 0
+    assert ctrl.filter_guard == smooth["filter_guard"] == ctrl.hysteresis
     params = ctrl.params
     assert params["preset"] == "smooth" and params["change_cost"] == ctrl.change_cost.tolist()
     own = dcmppi.make_controller(
@@ -207,6 +208,6 @@ def test_bad_smoothness_parameters_are_named(params, match):
 def test_defaults_are_the_papers(name):
     ctrl = dcmppi.make_controller(name, agent="holonomic", lambda_=None, ess_target=None)
     assert ctrl.preset == "paper" and ctrl.lambda_ == 1.0 and ctrl.ess_target == 0.1
-    assert not ctrl.change_cost.any() and ctrl.filter_window == 0
+    assert not ctrl.change_cost.any() and ctrl.filter_window == 0 and ctrl.filter_guard is None
     if name in ("clustered", "dc"):
         assert ctrl.best_sample_cluster is True and ctrl.hysteresis == 0.0

@@ -306,4 +306,4 @@ class ClusteredMPPI(MPPI):
             plan, w = U[best], np.where(labels == best, w, 0.0)
             d.chosen, d.cluster_controls, d.cluster_costs = best, U, Jm
         d.weights, d.ess = w, effective_sample_size(w)
-        return self.finish(plan, state, r.u[:, :, np.argmin(r.J)])
+        return self.finish(plan, state)

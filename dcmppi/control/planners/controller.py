@@ -80,10 +80,12 @@ class Controller:
       filter_window, filter_order: the Savitzky-Golay filter of the plan, its odd window (>= 3;
         0: no filter, the default; "smooth": 9) and polynomial order (< window; default 2).
       filter_guard: a cost margin >= 0, or None (the default): no guard. With a filter, the
-        cheaper of the plan as optimised and the step's least-cost sample replaces the filtered
+        plan as optimised, or the step's least-cost sample where the planner passes it (mppi and
+        tube: an average of samples may meet what the best one avoids; the clustered planners'
+        candidates hold that sample's own cluster), whichever is cheaper, replaces the filtered
         plan at a step where its noise-free cost J is lower by more than the margin (a collision
         that the filter's lag or the average would meet), and is applied and warm-starts in its
-        stead.
+        stead; "smooth": 50, the hysteresis's margin.
     Attributes: agent, predictor, objective (the last step's), diagnostics (the last step's),
       timer (the profile's hook, dcmppi.control.timer).
 

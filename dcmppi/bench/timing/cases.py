@@ -22,7 +22,21 @@ TV, MIXED = {"perturbation": "time_varying"}, {"perturbation": "mixed"}
 WALK = {"agent": "holonomic", **MIXED, "Sigma": [1.0, 1.0, 0.1], "gamma": 1.0, "beta": 100.0}
 CV, SOCIAL = {**WALK, "prediction": "cv"}, {**WALK, "prediction": "social"}
 BIG = {**TV, "K": 2048, "N": 100}
-CASES = (
+# the learned predictor's model: square-orca's recipe (200 episodes of the square's ORCA crowd
+# recorded under base seed 1), trained on first use into the model cache (`with_model`), the
+# same file as that experiment's dc-learned row
+LEARNED_MODEL = {
+    "record": {
+        "task": "square",
+        "task_params": {"behavior": "orca", "robot_visible": False},
+        "episodes": 200,
+        "base_seed": 1,
+    },
+    "seed": 0,
+    "period": 0.4,
+}
+LEARNED = {**WALK, "prediction": "learned", "model": LEARNED_MODEL}
+BASE_CASES = (
     Case("mppi", "mppi", "forest", target_ms=0.2),
     Case("mppi tv", "mppi", "forest", TV, target_ms=0.3),
     Case("mppi mixed", "mppi", "forest", MIXED),
@@ -90,9 +104,16 @@ CASES = (
         target_ratio=round(1 / 1.7, 2),
     ),
 )
+# the learned predictor among 20 and 100 walkers (its model trained first where not cached)
+LEARNED_CASES = (
+    Case("dc-learned", "dc", "crowd-sf-20", LEARNED, target_ms=5.0),
+    Case("dc-learned", "dc", "crowd-sf", LEARNED, target_ms=20.0),
+)
+CASES = BASE_CASES + LEARNED_CASES
 
 # `--fingerprint`: every row of the table and the variants that take other code paths
-FINGERPRINT_CASES = CASES + (
+# (the learned rows aside: their plans depend on a trained model's bytes)
+FINGERPRINT_CASES = BASE_CASES + (
     Case("dc ekf", "dc", "crowd", {"prediction": "ekf"}),
     Case("dc tv", "dc", "crowd", TV),
     Case("dc unicycle", "dc", "crowd", {"agent": "unicycle"}),
@@ -120,3 +141,14 @@ PROFILE_CASES = (
     Case("mppi holonomic mixed", "mppi", "forest", {"agent": "holonomic", **MIXED}),
     Case("dc-social", "dc", "corridor", SOCIAL),  # the social predictor's share of a step
 )
+
+
+def with_model(params: dict) -> dict:
+    """`params` with a model recipe (a table for `model`, resolved as
+    dcmppi.bench.experiments.models resolves one) replaced by the path of its trained file."""
+    from dcmppi.bench.experiments import models
+
+    recipe = params.get(models.PARAM)
+    if not models.is_recipe(models.PARAM, recipe):
+        return params
+    return {**params, models.PARAM: str(models.ensure("dcmppi timing", recipe))}

@@ -4,6 +4,7 @@ import time
 
 import numpy as np
 
+from dcmppi.bench.timing.cases import with_model
 from dcmppi.bench.timing.worlds import (
     PEDESTRIANS,
     moving_crowd,
@@ -30,7 +31,8 @@ class ClosedLoop:
     at the step's start and its velocity over the step before.
 
     Args:
-      name: controller name; params: its parameters (seed = 0).
+      name: controller name; params: its parameters (seed = 0; a model recipe for `model`:
+        the path of its trained file, `cases.with_model`).
       problem: one of PROBLEMS.
       steps: the number of steps the loop will run (the length of forest+push's offsets).
       world: a World of the problem's family drawn by its generator with other counts
@@ -44,6 +46,7 @@ class ClosedLoop:
             raise ValueError(f"a pedestrian problem ({problem!r}) builds its own world")
         if problem == "forest+push":
             params = {"reset_threshold": 0.0, **params}
+        params = with_model(params)
         walking = problem in PEDESTRIANS
         if walking:
             task, random = pedestrian_task(problem)

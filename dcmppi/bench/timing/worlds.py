@@ -38,8 +38,13 @@ def dense_forest(clusters, seed=SEED):
 
 
 # The pedestrian problems' tasks (default parameters): the corridor (12 social-force
-# pedestrians between walls, static cylinder rows in `static`) and the crowd of 100 walkers.
-PEDESTRIANS = {"corridor": Corridor, "crowd-sf": lambda: Crowd(behavior="social_force")}
+# pedestrians between walls, static cylinder rows in `static`), the crowd of 100 walkers and
+# one of 20.
+PEDESTRIANS = {
+    "corridor": Corridor,
+    "crowd-sf": lambda: Crowd(behavior="social_force"),
+    "crowd-sf-20": lambda: Crowd(behavior="social_force", n_obstacles=20),
+}
 
 
 def pedestrian_task(problem, seed=SEED):

@@ -49,6 +49,15 @@ def test_the_pedestrian_problems_have_their_rows_and_targets(capsys, monkeypatch
     assert social["ratio"] == social["median_ms"] / mppi["median_ms"]  # crowd-sf's own mppi
 
 
+def test_each_smooth_row_is_timed_against_its_paper_mode_on_its_problem():
+    rows = {(c.label, c.problem): c for c in cases.CASES}
+    assert cases.SMOOTH_CASES
+    for c in cases.SMOOTH_CASES:
+        paper = rows[c.reference, c.problem]
+        assert c.label == f"{paper.label}+smooth" and c.controller == paper.controller
+        assert c.params == {**paper.params, "preset": "smooth"} and c.target_ratio == 1.15
+
+
 def test_the_corridor_loop_walks_its_pedestrians_and_passes_their_velocities(monkeypatch):
     calls = []
 

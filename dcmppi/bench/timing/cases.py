@@ -109,7 +109,19 @@ LEARNED_CASES = (
     Case("dc-learned", "dc", "crowd-sf-20", LEARNED, target_ms=5.0),
     Case("dc-learned", "dc", "crowd-sf", LEARNED, target_ms=20.0),
 )
-CASES = BASE_CASES + LEARNED_CASES
+# the smooth preset beside each paper mode on the same problem: its filter, guard and chosen
+# temperature may cost at most 15 % more
+SMOOTH = {"preset": "smooth"}
+SMOOTH_CASES = tuple(
+    Case(f"{label}+smooth", controller, problem, {**params, **SMOOTH}, label, target_ratio=1.15)
+    for label, controller, problem, params in (
+        ("mppi", "mppi", "corridor", WALK),
+        ("dc", "dc", "corridor", WALK),
+        ("dc-cv", "dc", "corridor", CV),
+        ("mppi", "mppi", "crowd-sf", WALK),
+    )
+)
+CASES = BASE_CASES + SMOOTH_CASES + LEARNED_CASES
 
 # `--fingerprint`: every row of the table and the variants that take other code paths
 # (the learned rows aside: their plans depend on a trained model's bytes)

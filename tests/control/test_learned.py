@@ -163,6 +163,22 @@ def test_dc_plans_with_learned_futures(tmp_path):
     assert np.isfinite(omega).all()
 
 
+def test_an_approximate_search_keeps_neighbours_within_its_slack():
+    w = walks()
+    model = learned.fit(w, seed=0)
+    rng = np.random.default_rng(1)
+    features = model.features[rng.choice(len(model.features), 20)]
+    x = features + rng.normal(0, 0.3, features.shape)
+    exact, _ = model.tree.query(x, k=10)
+    loose, _ = model.tree.query(x, k=10, eps=1.0)
+    assert np.all(loose <= 2.0 * exact + 1e-12) and np.any(loose > exact)
+    none = np.zeros((3, 0, 2))
+    same = model.forecast(w.observed[:3], none, none, P=4, approximation=0.0)
+    np.testing.assert_array_equal(same, model.forecast(w.observed[:3], none, none, P=4))
+    slack = model.forecast(w.observed[:3], none, none, P=4, approximation=1.0)
+    assert slack.shape == same.shape and np.isfinite(slack).all()
+
+
 def test_errors_name_the_fix(tmp_path):
     with pytest.raises(ValueError, match=r"needs model=PATH.*dcmppi predictor train"):
         make_predictor("learned", **SHARED)
@@ -172,3 +188,5 @@ def test_errors_name_the_fix(tmp_path):
     np.savez(bad, x=np.zeros(2))
     with pytest.raises(ValueError, match=r"bad\.npz: not a learned predictor's model"):
         make_predictor("learned", model=str(bad), **SHARED)
+    with pytest.raises(ValueError, match=r"approximation must be >= 0"):
+        make_predictor("learned", model=str(model_file(tmp_path)), approximation=-1, **SHARED)

@@ -41,6 +41,7 @@ import numpy as np
 
 from dcmppi.control.predictors.base import register_predictor
 from dcmppi.control.predictors.given import Given
+from dcmppi.control.validation import positive
 
 FORMAT = "dcmppi-learned-1"  # the model file's format (checked on load)
 SPEED_FLOOR = 0.1  # [m per frame]: the smallest scale s; slower people are read at this speed
@@ -96,12 +97,12 @@ class Model:
                 with archive.open(entry, "w") as f:
                     np.lib.format.write_array(f, np.asarray(value), allow_pickle=False)
 
-    def forecast(self, observed, others, others_velocity, P) -> np.ndarray:
+    def forecast(self, observed, others, others_velocity, P, approximation=0.0) -> np.ndarray:
         """(L, P, pred, 2) P futures of each of L people at the model's frames 1..pred.
 
         observed: (L, obs, 2) each person's positions one period apart, the last now;
         others, others_velocity: (L, K, 2) the other people's positions now and velocities
-        [m per frame] (nan rows: none; K may be 0).
+        [m per frame] (nan rows: none; K may be 0); approximation: the k-d tree's slack (Learned).
         """
         L = len(observed)
         if L == 0:
@@ -111,7 +112,7 @@ class Model:
         x = _features(observed, others, others_velocity, heading, scale, self.neighbours)
         x *= _weights(self.obs, self.neighbours, self.social_weight)
         k = min(P, len(self.features))
-        index = self.tree.query(x, k=k)[1].reshape(L, k)
+        index = self.tree.query(x, k=k, eps=approximation)[1].reshape(L, k)
         index = np.resize(index, (L, P)) if k < P else index  # a tiny model repeats its own
         local = self.futures[index] * scale[:, None, None, None]  # (L, P, pred, 2)
         mean = local.mean(axis=1)
@@ -286,13 +287,18 @@ def rotate(xy, angle) -> np.ndarray:
 class Learned(Given):
     """P retrieved futures per pedestrian from a trained model (module docstring).
 
-    Extra args: model: the path of the model file (`dcmppi predictor train`).
+    Extra args: model: the path of the model file (`dcmppi predictor train`); approximation:
+      a >= 0: the retrieved futures are those of approximate nearest neighbours, each within
+      (1 + a) times the distance of the true one of its rank (scipy's k-d tree `eps`); 0: exact
+      (the default). The tree's exact search slows where a crowd lies far from the training
+      windows (docs/performance.md); a bounded slack trades a few neighbours for speed.
     """
 
-    own_params = ("model",)
+    own_params = ("model", "approximation")
     inputs = ("velocity",)
 
-    def __init__(self, *, model=None, **shared):
+    def __init__(self, *, model=None, approximation=0.0, **shared):
+        self.approximation = positive("approximation", approximation, allow_zero=True)
         if model is None:
             raise ValueError(
                 "prediction 'learned' needs model=PATH, a file that `dcmppi predictor train "
@@ -327,7 +333,9 @@ class Learned(Given):
         others[np.diag_indices(len(moving))] = np.nan
         others_v = np.broadcast_to(now_velocity[None], others.shape).copy()
         others_v[np.isnan(others)] = np.nan
-        frames = self.trained.forecast(observed, others, others_v, self.P)  # (L, P, pred, 2)
+        frames = self.trained.forecast(
+            observed, others, others_v, self.P, self.approximation
+        )  # (L, P, pred, 2)
         futures = self.resample(moving[:, :2], frames)
         radius = moving[:, 3] + self.obstacle_margin
         near = self.reached(state, futures, radius)

@@ -49,6 +49,12 @@ def test_the_pedestrian_problems_have_their_rows_and_targets(capsys, monkeypatch
     assert social["ratio"] == social["median_ms"] / mppi["median_ms"]  # crowd-sf's own mppi
 
 
+def test_every_row_has_its_reference_row_on_its_problem():
+    rows = {(c.label, c.problem.split("+")[0]) for c in cases.CASES}
+    for c in cases.CASES:
+        assert (c.reference, c.problem.split("+")[0]) in rows, (c.label, c.problem)
+
+
 def test_each_smooth_row_is_timed_against_its_paper_mode_on_its_problem():
     rows = {(c.label, c.problem): c for c in cases.CASES}
     assert cases.SMOOTH_CASES

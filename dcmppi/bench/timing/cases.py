@@ -106,8 +106,13 @@ BASE_CASES = (
 )
 # the learned predictor among 20 and 100 walkers (its model trained first where not cached)
 LEARNED_CASES = (
-    Case("dc-learned", "dc", "crowd-sf-20", LEARNED, target_ms=5.0),
-    Case("dc-learned", "dc", "crowd-sf", LEARNED, target_ms=20.0),
+    Case("dc-cv", "dc", "crowd-sf-20", CV, "dc-cv"),
+    Case("dc-learned", "dc", "crowd-sf-20", LEARNED, "dc-cv", target_ms=5.0),
+    Case("dc-cv", "dc", "crowd-sf", CV),
+    Case("dc-learned", "dc", "crowd-sf", LEARNED, "dc-cv", target_ms=20.0),
+    # its k-d tree's approximate search: the neighbours within 2 x the true ones' distances
+    Case("dc-learned approx", "dc", "crowd-sf-20", {**LEARNED, "approximation": 1.0}, "dc-cv"),
+    Case("dc-learned approx", "dc", "crowd-sf", {**LEARNED, "approximation": 1.0}, "dc-cv"),
 )
 # the smooth preset beside each paper mode on the same problem: its filter, guard and chosen
 # temperature may cost at most 15 % more

@@ -110,9 +110,9 @@ LEARNED_CASES = (
     Case("dc-learned", "dc", "crowd-sf-20", LEARNED, "dc-cv", target_ms=5.0),
     Case("dc-cv", "dc", "crowd-sf", CV),
     Case("dc-learned", "dc", "crowd-sf", LEARNED, "dc-cv", target_ms=20.0),
-    # its k-d tree's approximate search: the neighbours within 2 x the true ones' distances
-    Case("dc-learned approx", "dc", "crowd-sf-20", {**LEARNED, "approximation": 1.0}, "dc-cv"),
-    Case("dc-learned approx", "dc", "crowd-sf", {**LEARNED, "approximation": 1.0}, "dc-cv"),
+    # its k-d tree's exact search (the default is approximate: learned.APPROXIMATION)
+    Case("dc-learned exact", "dc", "crowd-sf-20", {**LEARNED, "approximation": 0.0}, "dc-cv"),
+    Case("dc-learned exact", "dc", "crowd-sf", {**LEARNED, "approximation": 0.0}, "dc-cv"),
 )
 # the smooth preset beside each paper mode on the same problem: its filter, guard and chosen
 # temperature may cost at most 15 % more

@@ -49,6 +49,10 @@ NEIGHBOURS = 1  # nearest other people described in the features
 SOCIAL_WEIGHT = 0.3  # weight of their relative position and velocity [1/m]
 FAR = 6.0  # [m] ahead: where a missing neighbour is placed
 FIT_K = 20  # retrieved futures per window when fitting the shrink
+# the k-d tree's slack: each retrieved neighbour within (1 + APPROXIMATION) x the distance of the
+# true one of its rank (scipy's eps); it bounds the search far from the training windows, and on
+# ETH/UCY's leave-one-out models its forecasts match the exact search's to 0.01 m (docs/crowds.md)
+APPROXIMATION = 1.0
 FOLDS = 5  # held-out folds of the shrink when the windows come from one recording
 # a pedestrian further than GATE + GATE_SPEED dt from where every track was heading starts a new
 # track (a track seen once is taken as standing: its first step may be a fast walker's)
@@ -97,12 +101,13 @@ class Model:
                 with archive.open(entry, "w") as f:
                     np.lib.format.write_array(f, np.asarray(value), allow_pickle=False)
 
-    def forecast(self, observed, others, others_velocity, P, approximation=0.0) -> np.ndarray:
+    def forecast(self, observed, others, others_velocity, P, approximation=APPROXIMATION):
         """(L, P, pred, 2) P futures of each of L people at the model's frames 1..pred.
 
         observed: (L, obs, 2) each person's positions one period apart, the last now;
         others, others_velocity: (L, K, 2) the other people's positions now and velocities
-        [m per frame] (nan rows: none; K may be 0); approximation: the k-d tree's slack (Learned).
+        [m per frame] (nan rows: none; K may be 0); approximation: the k-d tree's slack
+        (APPROXIMATION; 0: exact). Returns the futures (L, P, pred, 2).
         """
         L = len(observed)
         if L == 0:
@@ -289,15 +294,15 @@ class Learned(Given):
 
     Extra args: model: the path of the model file (`dcmppi predictor train`); approximation:
       a >= 0: the retrieved futures are those of approximate nearest neighbours, each within
-      (1 + a) times the distance of the true one of its rank (scipy's k-d tree `eps`); 0: exact
-      (the default). The tree's exact search slows where a crowd lies far from the training
+      (1 + a) times the distance of the true one of its rank (scipy's k-d tree `eps`; default
+      APPROXIMATION); 0: exact. The exact search slows where a crowd lies far from the training
       windows (docs/performance.md); a bounded slack trades a few neighbours for speed.
     """
 
     own_params = ("model", "approximation")
     inputs = ("velocity",)
 
-    def __init__(self, *, model=None, approximation=0.0, **shared):
+    def __init__(self, *, model=None, approximation=APPROXIMATION, **shared):
         self.approximation = positive("approximation", approximation, allow_zero=True)
         if model is None:
             raise ValueError(

@@ -73,7 +73,12 @@ def test_barn_experiment_maps_environment_i_to_world_i():
         "world",
         "mppi",
     )
-    assert exp.labels == ("mppi", "clustered", "tube", "dwa", "mppi+smooth", "clustered+smooth")
+    assert exp.labels == (
+        "mppi", "clustered", "tube", "dwa", "mppi+smooth", "clustered+smooth", "mppi-6000x100",
+        "mppi-6000x100+smooth",
+    )  # fmt: skip
+    budget = exp.spec("none", "mppi-6000x100+smooth", 0).controller_params
+    assert (budget["K"], budget["N"], budget["preset"]) == (6000, 100, "smooth")  # BiC-MPPI's
     assert exp.task_params["agent"] == "unicycle" and exp.task_params["robot_radius"] == 0.3
     assert 100 - exp.paper("none", "mppi").failure_pct == pytest.approx(80.5)
     assert 100 - exp.paper("none", "clustered").failure_pct == pytest.approx(80.2)

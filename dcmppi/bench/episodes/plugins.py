@@ -115,12 +115,15 @@ def _checked(name: str, cls) -> type:
 
 def accepted_params(cls: type, agent, prediction=None) -> set[str] | None:
     """Keyword arguments `cls` takes (None: any). A dcmppi.Controller takes its own, its agent's
-    and its predictor's (`prediction`, None: the class's default) parameters; another class what
-    its __init__ names."""
+    and its predictor's (`prediction`, None: the class's default) parameters; another class those
+    its `param_names()` lists where it has one (the classical planners), else what its __init__
+    names."""
     if issubclass(cls, Controller):
         if not isinstance(agent, str):
             return set(cls.param_names())
         return set(controller_params(cls, agent, prediction))
+    if callable(getattr(cls, "param_names", None)):
+        return set(cls.param_names())
     try:
         parameters = inspect.signature(cls).parameters.values()
     except (TypeError, ValueError):  # no signature to read (a C extension type)

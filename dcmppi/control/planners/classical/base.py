@@ -3,8 +3,9 @@
 A classical controller plans one command per step from the same observation as every planner
 (`act(state, goal, static, moving, obstacle_model, bounds, moving_velocity)`) with the task's
 robot (agent, its limits, robot_radius); it keeps no sampled rollouts. It is not a
-`dcmppi.Controller` (no K, N, Sigma ...): its keyword parameters are its `__init__`'s, which
-`param_names()` lists for `make_controller` and the bench reads from the signature.
+`dcmppi.Controller` (no K, N, Sigma ...): its keyword parameters are those of its class's
+`__init__` and its bases' (a subclass passes the robot's on as `**robot`), which `param_names()`
+lists for `make_controller` and the bench.
 
 Its state between steps is the command it gave last (`velocity`, world frame, and `omega`): the
 robot's velocity as the reciprocal planners, the social force and the dynamic window need it,
@@ -71,9 +72,15 @@ class Classical:
 
     @classmethod
     def param_names(cls):
-        """The keyword parameters of `__init__` (the agent's included)."""
-        parameters = inspect.signature(cls.__init__).parameters.values()
-        return [p.name for p in parameters if p.kind == p.KEYWORD_ONLY]
+        """The keyword parameters of every `__init__` along the class's bases (the agent's
+        included): a subclass names its own and passes the robot's on as `**robot`."""
+        names = []
+        for klass in cls.__mro__:
+            if "__init__" in klass.__dict__:
+                parameters = inspect.signature(klass.__init__).parameters.values()
+                own = [p.name for p in parameters if p.kind == p.KEYWORD_ONLY]
+                names += [n for n in own if n not in names]
+        return names
 
     @property
     def params(self):

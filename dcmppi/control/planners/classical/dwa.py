@@ -31,7 +31,6 @@ import math
 import numba
 import numpy as np
 
-from dcmppi.control import defaults
 from dcmppi.control.planners.classical.base import Classical
 from dcmppi.control.planners.registry import register
 from dcmppi.control.validation import positive
@@ -85,18 +84,9 @@ class DWA(Classical):
         costmap_resolution=0.05,
         speed_scale=0.0,
         agent="dubins",
-        robot_radius=defaults.ROBOT_RADIUS,
-        dt=defaults.DT,
-        seed=None,
-        v=None,
-        r_min=None,
-        v_max=None,
-        omega_max=None,
+        **robot,
     ):
-        super().__init__(
-            agent=agent, robot_radius=robot_radius, dt=dt, seed=seed, v=v, r_min=r_min,
-            v_max=v_max, omega_max=omega_max,
-        )  # fmt: skip
+        super().__init__(agent=agent, **robot)  # robot_radius, dt, seed, the agent's limits
         self.sim_time = positive("sim_time", sim_time)
         self.vx_samples = positive("vx_samples", vx_samples, integer=True)
         self.vtheta_samples = positive("vtheta_samples", vtheta_samples, integer=True)

@@ -18,7 +18,6 @@ it computes in float32, deterministically.
 
 import numpy as np
 
-from dcmppi.control import defaults
 from dcmppi.control.planners.classical.base import RANGE, Classical
 from dcmppi.control.planners.registry import register
 from dcmppi.control.validation import positive
@@ -121,18 +120,9 @@ class ORCA(Reciprocal):
         safety_margin=SAFETY_MARGIN,
         horizon=5.0,
         agent="holonomic",
-        robot_radius=defaults.ROBOT_RADIUS,
-        dt=defaults.DT,
-        seed=None,
-        v=None,
-        r_min=None,
-        v_max=None,
-        omega_max=None,
+        **robot,
     ):
-        super().__init__(
-            agent=agent, robot_radius=robot_radius, dt=dt, seed=seed, v=v, r_min=r_min,
-            v_max=v_max, omega_max=omega_max,
-        )  # fmt: skip
+        super().__init__(agent=agent, **robot)  # robot_radius, dt, seed, the agent's limits
         self.time_horizon = positive("time_horizon", time_horizon)
         self.max_neighbors = positive("max_neighbors", max_neighbors, integer=True)
         self.effective_center = bool(effective_center)
@@ -169,18 +159,9 @@ class HRVO(Reciprocal):
         safety_margin=SAFETY_MARGIN,
         horizon=5.0,
         agent="holonomic",
-        robot_radius=defaults.ROBOT_RADIUS,
-        dt=defaults.DT,
-        seed=None,
-        v=None,
-        r_min=None,
-        v_max=None,
-        omega_max=None,
+        **robot,
     ):
-        super().__init__(
-            agent=agent, robot_radius=robot_radius, dt=dt, seed=seed, v=v, r_min=r_min,
-            v_max=v_max, omega_max=omega_max,
-        )  # fmt: skip
+        super().__init__(agent=agent, **robot)  # robot_radius, dt, seed, the agent's limits
         self.max_neighbors = positive("max_neighbors", max_neighbors, integer=True)
         self.uncertainty_offset = positive(
             "uncertainty_offset", uncertainty_offset, allow_zero=True
@@ -215,18 +196,9 @@ class HL(Reciprocal):
         safety_margin=0.0,
         horizon=5.0,
         agent="holonomic",
-        robot_radius=defaults.ROBOT_RADIUS,
-        dt=defaults.DT,
-        seed=None,
-        v=None,
-        r_min=None,
-        v_max=None,
-        omega_max=None,
+        **robot,
     ):
-        super().__init__(
-            agent=agent, robot_radius=robot_radius, dt=dt, seed=seed, v=v, r_min=r_min,
-            v_max=v_max, omega_max=omega_max,
-        )  # fmt: skip
+        super().__init__(agent=agent, **robot)  # robot_radius, dt, seed, the agent's limits
         self.tau = positive("tau", tau)
         self.eta = positive("eta", eta)
         self.aperture = positive("aperture", aperture)

@@ -14,7 +14,6 @@ the sideways push at every step).
 
 import numpy as np
 
-from dcmppi.control import defaults
 from dcmppi.control.kernels import social
 from dcmppi.control.planners.classical.base import RANGE, Classical, track
 from dcmppi.control.planners.registry import register
@@ -41,18 +40,9 @@ class SocialForce(Classical):
         tau=social.TAU,
         pref_speed=None,
         agent="holonomic",
-        robot_radius=defaults.ROBOT_RADIUS,
-        dt=defaults.DT,
-        seed=None,
-        v=None,
-        r_min=None,
-        v_max=None,
-        omega_max=None,
+        **robot,
     ):
-        super().__init__(
-            agent=agent, robot_radius=robot_radius, dt=dt, seed=seed, v=v, r_min=r_min,
-            v_max=v_max, omega_max=omega_max,
-        )  # fmt: skip
+        super().__init__(agent=agent, **robot)  # robot_radius, dt, seed, the agent's limits
         self.A, self.B, self.tau = positive("A", A), positive("B", B), positive("tau", tau)
         speed = self.agent.max_speed
         self.pref_speed = speed if pref_speed is None else positive("pref_speed", pref_speed)

@@ -442,6 +442,12 @@ class Controller:
         weight = np.zeros(self.nu) if self._change_weight is None else self._change_weight
         return change_costs(u, np.asarray(previous, dtype=float), weight, j0, j1)
 
+    @property
+    def has_guard(self):
+        """Whether the plan's filter has a guard (filter_guard), which weighs the step's
+        least-cost sample too."""
+        return self._filter is not None and self.filter_guard is not None
+
     def smoothed(self, plan, x0, sample=None):
         """The plan (N, nu) through the Savitzky-Golay filter, the controls applied at the last
         steps before it, projected into the agent's bounds; the plan itself without a filter.

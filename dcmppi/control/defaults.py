@@ -27,6 +27,7 @@ GAMMA = 1.0  # gamma, weight of the importance term (1: the paper's Alg. 2)
 ALPHA = 1000.0  # alpha, static collision weight (paper)
 BETA = 100.0  # beta, dynamic collision weight (paper: 10, nearly inert at this cost scale)
 P = 25  # sampled futures per moving obstacle (paper)
+CORRELATION = 0.9  # step-to-step correlation of "correlated" perturbations (docs/design.md)
 
 
 def omega_max(v: float = V, r_min: float = R_MIN) -> float:
@@ -37,22 +38,22 @@ def omega_max(v: float = V, r_min: float = R_MIN) -> float:
 # Presets: named sets of the options above that a controller takes with `preset=` (explicit
 # parameters win). "paper": the paper's algorithms, every default above (the default preset).
 # "smooth": plans a robot can follow (docs/design.md, Smoothness), chosen on environments outside
-# the experiments' and the same for every planner: the temperature chosen each step at an ESS of
-# 5 % of K, nav2's Savitzky-Golay filter of the plan (9 steps, quadratic), for the clustered
-# planners hysteresis of 50 cost units (about 1 m less progress at every state) in the choice of
-# cluster, and a guard of the same margin that applies the unfiltered plan (or mppi's and tube's
-# least-cost sample) where the filtered one costs more by that much. Tried and left out: a change
-# cost of 3 / Sigma stalled the robot (corridor episodes twice as long), 0.3 / Sigma smoothed
-# little more; without the least-cost sample's own cluster dc collided more in every crowd; guard
-# margins of 10 kept the jerk near the paper's, 100 let square-orca's collisions rise.
+# the experiments' and the same for every planner: correlated perturbations (CORRELATION), the
+# temperature chosen each step at an ESS of 5 % of K, nav2's Savitzky-Golay filter of the plan
+# (9 steps, quadratic), and for the clustered planners hysteresis of 50 cost units (about 1 m less
+# progress at every state) in the choice of cluster. Tried and left out: a change cost of
+# 3 / Sigma stalled the robot (corridor episodes twice as long), 0.3 / Sigma smoothed little more;
+# without the least-cost sample's own cluster dc collided more in every crowd; with per-step
+# (mixed) perturbations the filter's lag let collisions rise, which a filter_guard of 50 bought
+# back at a jerk above 40 m/s^3; with correlated ones that guard only adds jerk.
 PRESETS = {
     "paper": {},
     "smooth": {
+        "perturbation": "correlated",
         "lambda_": "auto",
         "ess_target": 0.05,
         "filter_window": 9,
         "filter_order": 2,
         "hysteresis": 50.0,
-        "filter_guard": 50.0,
     },
 }

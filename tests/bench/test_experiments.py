@@ -39,7 +39,7 @@ def test_shipped_experiments_hold_the_papers_setup():
         "mppi", "clustered", "mppi+margin", "clustered+margin", "tube", "dc", *classical,
         *smooth, "tube+smooth", "dc+smooth",
     )  # fmt: skip
-    assert dynamic.row("tube+smooth").params == {"preset": "smooth"}
+    assert dynamic.row("tube+smooth").params == {"preset": "smooth", "perturbation": "correlated"}
     assert dynamic.row("clustered+margin").controller == "clustered"
     assert dynamic.row("clustered+margin").params == {"obstacle_margin": 0.5}
     assert (dynamic.episodes, dynamic.reference, dynamic.noises) == (300, "dc", ("none",))
@@ -84,7 +84,11 @@ def test_shipped_experiments_hold_the_papers_setup():
         assert walking.row("dc-social").params == {"prediction": "social"}
     square = load_experiment("square-orca")
     assert square.row("dc-oracle").params == {"prediction": "given"}
-    assert square.row("dc-cv+smooth").params == {"prediction": "cv", "preset": "smooth"}
+    assert square.row("dc-cv+smooth").params == {
+        "prediction": "cv",
+        "preset": "smooth",
+        "perturbation": "correlated",
+    }
     mismatch = load_experiment("corridor-mismatch")
     assert mismatch.row("dc-ekf-walk").params["process_std"] == [0.01, 0.01, 0.3, 0.5, 1.0]
     assert mismatch.labels == (

@@ -60,9 +60,13 @@ def test_features_are_horizon_means_in_std_units_and_scaled_costs():
     np.testing.assert_allclose(mean_std(sigma, "constant", 50), sigma)
     np.testing.assert_allclose(mean_std(sigma, "time_varying", 50), sigma / np.sqrt(50))
     np.testing.assert_allclose(mean_std(sigma, "mixed", 50), sigma * np.sqrt(0.51))
+    np.testing.assert_allclose(mean_std(sigma, "correlated", 50, 0.0), sigma / np.sqrt(50))
+    steps = np.arange(50)  # the mean of a^|i - j| over the pairs of steps
+    pairs = np.mean(0.9 ** np.abs(steps[:, None] - steps[None]))
+    np.testing.assert_allclose(mean_std(sigma, "correlated", 50, 0.9), sigma * np.sqrt(pairs))
 
 
-@pytest.mark.parametrize("perturbation", ["constant", "time_varying", "mixed"])
+@pytest.mark.parametrize("perturbation", ["constant", "time_varying", "mixed", "correlated"])
 def test_features_of_unprojected_samples_are_standard_normal(perturbation):
     ctrl = dcmppi.make_controller(
         "clustered", agent="holonomic", seed=0, K=4000, perturbation=perturbation
@@ -74,7 +78,7 @@ def test_features_of_unprojected_samples_are_standard_normal(perturbation):
 
 
 @pytest.mark.parametrize("agent", ["dubins", "unicycle", "holonomic"])
-@pytest.mark.parametrize("perturbation", ["constant", "time_varying", "mixed"])
+@pytest.mark.parametrize("perturbation", ["constant", "time_varying", "mixed", "correlated"])
 def test_projection_pass_gives_the_features_and_reads_constant_perturbations_alike(
     agent, perturbation
 ):

@@ -1,6 +1,8 @@
 """Registry, parameters, determinism, diagnostics, analytic closed loop: every controller with
 every agent."""
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -9,7 +11,7 @@ from dcmppi.control.agents import make_agent
 
 NAMES = ["mppi", "clustered", "dc", "tube"]
 AGENTS = ["dubins", "unicycle", "holonomic"]
-PERTURBATIONS = ["constant", "time_varying", "mixed"]
+PERTURBATIONS = ["constant", "time_varying", "mixed", "correlated"]
 MODEL = np.array([1.0, 0.29, 0.0, 0.29])
 
 
@@ -209,13 +211,34 @@ def test_agent_instance_and_margin():
 
 @pytest.mark.parametrize("perturbation", PERTURBATIONS)
 def test_every_perturbation_kind_has_the_per_step_variance_sigma(perturbation):
-    """The importance term assumes eps_i ~ N(0, Sigma) at every step: constant, time-varying and
-    mixed (half of the variance constant, half per step) samples all have it."""
+    """The importance term assumes eps_i ~ N(0, Sigma) at every step: constant, time-varying,
+    mixed (half of the variance constant, half per step) and correlated (AR(1), correlation
+    a^5 five steps apart) samples all have it."""
     ctrl = dcmppi.make_controller(
         "mppi", agent="holonomic", seed=0, K=20000, N=10, perturbation=perturbation
     )
     eps = np.asarray(ctrl.sample())  # (N, 3, K)
     np.testing.assert_allclose(eps.var(axis=2), np.broadcast_to(ctrl.Sigma, (10, 3)), rtol=0.05)
     lag = (eps[0] * eps[5]).mean(axis=1) / ctrl.Sigma  # correlation between two steps
-    expected = {"constant": 1.0, "time_varying": 0.0, "mixed": 0.5}[perturbation]
+    expected = {"constant": 1.0, "time_varying": 0.0, "mixed": 0.5, "correlated": 0.9**5}
+    expected = expected[perturbation]
     np.testing.assert_allclose(lag, expected, atol=0.03)
+    next_step = (eps[3] * eps[4]).mean(axis=1) / ctrl.Sigma
+    if perturbation == "correlated":
+        np.testing.assert_allclose(next_step, ctrl.correlation, atol=0.03)
+
+
+def test_correlation_is_checked_and_belongs_to_its_kind():
+    """correlation: in [0, 1), the default 0.9 for "correlated", refused with another kind; the
+    smooth preset draws correlated perturbations unless another kind is given."""
+    make = functools.partial(dcmppi.make_controller, "mppi", agent="holonomic")
+    assert make(perturbation="correlated").correlation == 0.9
+    assert make(perturbation="correlated", correlation=0.5).correlation == 0.5
+    assert make().correlation == 0.0
+    with pytest.raises(ValueError, match="correlation applies to perturbation='correlated'"):
+        make(correlation=0.5)
+    for bad in (1.0, -0.1, "x"):
+        with pytest.raises(ValueError, match="correlation"):
+            make(perturbation="correlated", correlation=bad)
+    assert make(preset="smooth").perturbation == "correlated"
+    assert make(preset="smooth", perturbation="mixed").perturbation == "mixed"

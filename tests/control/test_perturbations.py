@@ -211,31 +211,52 @@ def test_draws_are_the_same_for_every_split_and_keep_whole_blocks(k):
     assert np.array_equal(unit[..., :whole], longer[..., :whole])
 
 
+@pytest.mark.parametrize("k", [1, 65, 500])
+@pytest.mark.parametrize("a", [0.5, 0.9])
+def test_correlated_draws_are_an_ar1_sequence_of_the_draws(k, a):
+    """With a correlation a: row 0 the independent draw, row i a row_{i-1} + sqrt(1 - a^2) times
+    the independent draw (exactly), the same for every split; per-row variance scale^2 and
+    correlation a^|i - i'| between rows."""
+    scale = np.array([0.5, 2.0])
+    unit = draw_normals(5, 9, (6, 2, k), scale)
+    want = unit.copy()
+    for i in range(1, 6):
+        want[i] = a * want[i - 1] + np.sqrt(1.0 - a * a) * unit[i]
+    got = draw_normals(5, 9, (6, 2, k), scale, correlation=a)
+    assert np.array_equal(got, want)
+    assert np.array_equal(draw_normals(5, 9, (6, 2, k), scale, None, 2, a), got)
+    z = draw_normals(3, 1, (8, 1, 40000), np.ones(1), correlation=a)[:, 0]
+    np.testing.assert_allclose(z.var(axis=1), 1.0, rtol=0.03)
+    for lag in (1, 3):
+        np.testing.assert_allclose((z[2] * z[2 + lag]).mean(), a**lag, atol=0.03)
+
+
 @pytest.mark.parametrize("k", [3, 64, 130, 500])
-@pytest.mark.parametrize("mixed", [False, True])
+@pytest.mark.parametrize("mixed", [False, True, "correlated"])
 def test_draws_into_a_box_are_the_draws_then_the_projection(k, mixed):
     """draw_box, whole or in threads' parts, gives the values of draw_normals then the box
     projection, the horizon sums included."""
     agent = make_controller("mppi", agent="unicycle").agent  # two controls, box bounds
     rng = np.random.default_rng(3)
     U0 = rng.uniform(agent.lower, agent.upper, (7, 2))
-    scale, add = np.array([0.6, 1.5]), (rng.normal(size=(2, k)) if mixed else None)
-    eps = draw_normals(8, 4, (7, 2, k), scale, add)
+    scale, add = np.array([0.6, 1.5]), (rng.normal(size=(2, k)) if mixed is True else None)
+    a = 0.8 if mixed == "correlated" else 0.0
+    eps = draw_normals(8, 4, (7, 2, k), scale, add, correlation=a)
     want = project_perturbed(agent, U0, eps)
     assert 0 < (want[0] == agent.upper[1]).mean() < 0.5  # some controls are bounded
     for cols in (None, *parts(k, 2)):
         u, e, sums = np.zeros((7, 2, k)), np.zeros((7, 2, k)), np.zeros((2, k))
-        draw_box(8, 4, scale, add, U0, agent.lower, agent.upper, u, e, sums, cols)
+        draw_box(8, 4, scale, add, U0, agent.lower, agent.upper, u, e, sums, cols, correlation=a)
         j = slice(*(cols or (0, k)))
         for got, ref in zip((u, e, sums), want, strict=True):
             assert np.array_equal(got[..., j], ref[..., j])
     u, e = np.empty((7, 2, k)), np.empty((7, 2, k))
-    draw_box(8, 4, scale, add, U0, agent.lower, agent.upper, u, e, NO_SUMS)
+    draw_box(8, 4, scale, add, U0, agent.lower, agent.upper, u, e, NO_SUMS, correlation=a)
     assert np.array_equal(u, want[0]) and np.array_equal(e, want[1])
 
 
 @pytest.mark.parametrize("k", [3, 64, 130, 500])
-@pytest.mark.parametrize("mixed", [False, True])
+@pytest.mark.parametrize("mixed", [False, True, "correlated"])
 def test_draws_into_a_box_and_disc_are_the_draws_then_the_projection(k, mixed):
     """draw_box with the holonomic base's disc, whole or in threads' parts: the values of
     draw_normals then Agent.project's box and disc, the horizon and importance sums included."""
@@ -243,8 +264,9 @@ def test_draws_into_a_box_and_disc_are_the_draws_then_the_projection(k, mixed):
     disc = (*agent.norm_axes, agent.norm_limit)
     rng = np.random.default_rng(5)
     U0 = rng.uniform(-0.7, 0.7, (6, 3)) * agent.upper
-    scale, add = np.array([1.2, 0.9, 0.3]), (rng.normal(size=(3, k)) if mixed else None)
-    eps = draw_normals(8, 4, (6, 3, k), scale, add)
+    scale, add = np.array([1.2, 0.9, 0.3]), (rng.normal(size=(3, k)) if mixed is True else None)
+    a = 0.8 if mixed == "correlated" else 0.0
+    eps = draw_normals(8, 4, (6, 3, k), scale, add, correlation=a)
     want = project_perturbed(agent, U0, eps)
     np.testing.assert_array_equal(want[0], agent.project(U0[:, :, None] + eps, axis=1))
     speed = np.hypot(want[0][:, 0], want[0][:, 1])
@@ -254,14 +276,15 @@ def test_draws_into_a_box_and_disc_are_the_draws_then_the_projection(k, mixed):
     for cols in (None, *parts(k, 2)):
         u, e, sums, prods = (np.zeros((6, 3, k)), np.zeros((6, 3, k)), np.zeros((3, k)),
                              np.zeros((3, k)))  # fmt: skip
-        draw_box(8, 4, scale, add, U0, agent.lower, agent.upper, u, e, sums, cols, prods, disc)
+        draw_box(8, 4, scale, add, U0, agent.lower, agent.upper, u, e, sums, cols, prods, disc,
+                 a)  # fmt: skip
         j = slice(*(cols or (0, k)))
         for got, ref in zip((u, e, sums, prods), (*want, products), strict=True):
             assert np.array_equal(got[..., j], ref[..., j])
 
 
 @pytest.mark.parametrize("agent", ["unicycle", "holonomic"])
-@pytest.mark.parametrize("perturbation", ["time_varying", "mixed"])
+@pytest.mark.parametrize("perturbation", ["time_varying", "mixed", "correlated"])
 def test_a_step_drawn_in_its_pass_equals_the_draw_made_first(agent, perturbation):
     """perturbed_rollouts of sample()'s Draw (made in the pass that bounds it) equals it of the
     same perturbations made first: the same draw numbers, values and outputs, on one thread and

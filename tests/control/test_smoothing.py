@@ -165,7 +165,9 @@ def test_smooth_preset_sets_its_options_and_explicit_values_win():
     )
     assert ctrl.best_sample_cluster  # the least-cost sample's cluster stays
     assert ctrl.hysteresis == smooth["hysteresis"] > 0
-    assert ctrl.filter_guard == smooth["filter_guard"] == ctrl.hysteresis
+    assert ctrl.filter_guard is None and "filter_guard" not in smooth  # no guard: only jerk
+    assert ctrl.perturbation == smooth["perturbation"] == "correlated"
+    assert ctrl.correlation == 0.9
     params = ctrl.params
     assert params["preset"] == "smooth" and params["change_cost"] == ctrl.change_cost.tolist()
     own = dcmppi.make_controller(
@@ -176,6 +178,7 @@ def test_smooth_preset_sets_its_options_and_explicit_values_win():
     for name in ("mppi", "tube"):  # the planners without clusters take the rest
         ctrl = dcmppi.make_controller(name, agent="holonomic", preset="smooth", seed=0, K=64)
         assert ctrl.filter_window == 9 and ctrl.lambda_ == "auto"
+        assert ctrl.perturbation == "correlated" and not ctrl.has_guard
         list(head_on(ctrl, 3))
 
 

@@ -99,14 +99,29 @@ def _work():
 
 
 @numba.njit(inline="always")
-def _draw_row(bases, i, c, out, scale, add, j0, j1, work):
+def _last(nu, j0, j1, a):
+    """_draw_row's row kept for the correlation a: (nu, j1 - j0), or (0, 0) with a = 0."""
+    return np.empty((nu, j1 - j0) if a > 0.0 else (0, 0))
+
+
+@numba.njit(inline="always")
+def _draw_row(bases, i, c, out, scale, add, j0, j1, work, a, last):
     """out[i, c, j0:j1] = the normals of row i, control c of the blocks of `bases` times scale[c]
-    (+ add[c, j0:j1] when add is (nu, K)); returns that slice."""
+    (+ add[c, j0:j1] when add is (nu, K)); returns that slice. With a correlation a > 0, the
+    row is a last[c] + sqrt(1 - a^2) times those normals from the second row on, and last[c]
+    (nu, j1 - j0) keeps it for the next row (an AR(1) sequence of variance scale[c]^2)."""
     first = np.uint64((i * out.shape[1] + c) * BLOCK + 1)
     for b in range(len(bases)):
         b0 = j0 + b * BLOCK
         _block_row(bases[b], first, out[i, c, b0 : min(b0 + BLOCK, j1)], scale[c], work)
     o = out[i, c, j0:j1]
+    if a > 0.0:
+        previous, b = last[c], np.sqrt(1.0 - a * a)
+        if i > 0:
+            for j in range(len(o)):
+                o[j] = a * previous[j] + b * o[j]
+        for j in range(len(o)):
+            previous[j] = o[j]
     if add.shape[0]:
         a = add[c, j0:j1]
         for j in range(len(o)):
@@ -115,26 +130,27 @@ def _draw_row(bases, i, c, out, scale, add, j0, j1, work):
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _draw(key, draw, out, scale, add, j0, j1):
+def _draw(key, draw, out, scale, add, a, j0, j1):
     """out[:, :, j0:j1] = z * scale[c] (+ add[c, j] when add is (nu, K)) for standard normals z
-    of the blocks j0 // BLOCK .. of draw `draw` under `key`, row by row. out: (R, nu, K)."""
-    bases, work = _block_bases(key, draw, j0, j1), _work()
+    of the blocks j0 // BLOCK .. of draw `draw` under `key`, row by row (correlated along the
+    rows by a: _draw_row). out: (R, nu, K)."""
+    bases, work, last = _block_bases(key, draw, j0, j1), _work(), _last(out.shape[1], j0, j1, a)
     for i in range(out.shape[0]):
         for c in range(out.shape[1]):
-            _draw_row(bases, i, c, out, scale, add, j0, j1, work)
+            _draw_row(bases, i, c, out, scale, add, j0, j1, work, a, last)
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _draw_box(key, draw, scale, add, U0, lower, upper, u, e, sums, products, j0, j1):
+def _draw_box(key, draw, scale, add, a, U0, lower, upper, u, e, sums, products, j0, j1):
     """_draw's eps into the box, row by row while the row is in the cache: u = min(max(U0 + eps,
     lower), upper) and e = u - U0 in columns j0:j1 of u, e (N, nu, K), and when sums is (nu, K)
     the horizon sums of e added to it step by step (projection._clip_box's values; eps itself
     is not kept), when products is (nu, K) U0[i, c] e[i, c] likewise (dcmppi.control.kernels.sums'
     importance sums)."""
-    bases, work = _block_bases(key, draw, j0, j1), _work()
+    bases, work, last = _block_bases(key, draw, j0, j1), _work(), _last(u.shape[1], j0, j1, a)
     for i in range(u.shape[0]):
         for c in range(u.shape[1]):
-            o, r = _draw_row(bases, i, c, u, scale, add, j0, j1, work), e[i, c, j0:j1]
+            o, r = _draw_row(bases, i, c, u, scale, add, j0, j1, work, a, last), e[i, c, j0:j1]
             u0, lo, hi = U0[i, c], lower[c], upper[c]
             for j in range(len(o)):
                 v = min(max(u0 + o[j], lo), hi)
@@ -144,15 +160,15 @@ def _draw_box(key, draw, scale, add, U0, lower, upper, u, e, sums, products, j0,
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _draw_box_disc(key, draw, scale, add, U0, lower, upper, p, q, limit, u, e, sums, products,
-                   j0, j1):  # fmt: skip
+def _draw_box_disc(key, draw, scale, add, a, U0, lower, upper, p, q, limit, u, e, sums,
+                   products, j0, j1):  # fmt: skip
     """_draw_box with controls p and q then scaled back onto |(u_p, u_q)| <= limit, a row at a
     time (projection._clip_box_disc's values)."""
-    bases, work = _block_bases(key, draw, j0, j1), _work()
+    bases, work, last = _block_bases(key, draw, j0, j1), _work(), _last(u.shape[1], j0, j1, a)
     scales = np.empty(j1 - j0)
     for i in range(u.shape[0]):
         for c in range(u.shape[1]):
-            o = _draw_row(bases, i, c, u, scale, add, j0, j1, work)
+            o = _draw_row(bases, i, c, u, scale, add, j0, j1, work, a, last)
             u0, lo, hi = U0[i, c], lower[c], upper[c]
             for j in range(len(o)):
                 o[j] = min(max(u0 + o[j], lo), hi)
@@ -162,12 +178,15 @@ def _draw_box_disc(key, draw, scale, add, U0, lower, upper, p, q, limit, u, e, s
 _NO_ADD = np.zeros((0, 0))
 
 
-def draw_normals(key, draw, shape, scale, add=None, threads=1):
+def draw_normals(key, draw, shape, scale, add=None, threads=1, correlation=0.0):
     """z * scale[:, None] (+ add) for standard normals z of shape (R, nu, K), the draw number
     `draw` of the stream `key`; the same values for every `threads`.
 
     Args:
       key, draw: ints in [0, 2^64). shape: (R, nu, K). scale: (nu,). add: (nu, K) or None.
+      correlation: a in [0, 1): row i > 0 is a row_{i-1} + sqrt(1 - a^2) z_i scale (before
+        add), each sample's AR(1) sequence along the rows, of the same variance scale^2 per row
+        and correlation a^|i - i'| between rows i, i'; 0: independent rows.
     Returns:
       (R, nu, K) float64.
     """
@@ -176,16 +195,17 @@ def draw_normals(key, draw, shape, scale, add=None, threads=1):
     add = _NO_ADD if add is None else np.ascontiguousarray(add, dtype=float)
     key, draw = np.uint64(key), np.uint64(draw)
 
+    a = float(correlation)
+
     def part(j0, j1):
-        _draw(key, draw, out, scale, add, j0, j1)
+        _draw(key, draw, out, scale, add, a, j0, j1)
 
     run(part, parts(shape[2], threads))
     return out
 
 
-def draw_box(
-    key, draw, scale, add, U0, lower, upper, u, e, sums, cols=None, products=_NO_ADD, disc=None
-):
+def draw_box(key, draw, scale, add, U0, lower, upper, u, e, sums, cols=None, products=_NO_ADD,
+             disc=None, correlation=0.0):  # fmt: skip
     """The controls of the draw `draw` of the stream `key` (draw_normals' eps = z * scale[:, None]
     (+ add)) in their box, into the samples cols = (j0, j1) of u, e (N, nu, K) (None: all; j0 a
     multiple of BLOCK, as threads.parts gives): u = min(max(U0 + eps, lower), upper), e = u - U0,
@@ -194,18 +214,20 @@ def draw_box(
     gets the importance term's sums over the steps, sum_i U0[i, c] e[i, c]
     (dcmppi.control.kernels.sums' values). disc = (p, q, limit): controls p and q then scaled
     back onto |(u_p, u_q)| <= limit (the holonomic base's bound), as project_columns does.
+    correlation: draw_normals' (the rows of eps correlated before they are bounded).
 
     scale, lower, upper: (nu,); add: (nu, K) or None; U0: (N, nu).
     """
     j0, j1 = cols or (0, u.shape[2])
     add = _NO_ADD if add is None else np.ascontiguousarray(add, dtype=float)
     key, draw, scale = np.uint64(key), np.uint64(draw), np.asarray(scale, dtype=float)
+    a = float(correlation)
     if disc is None:
-        _draw_box(key, draw, scale, add, U0, lower, upper, u, e, sums, products, j0, j1)
+        _draw_box(key, draw, scale, add, a, U0, lower, upper, u, e, sums, products, j0, j1)
     else:
         p, q, limit = disc
-        _draw_box_disc(key, draw, scale, add, U0, lower, upper, p, q, float(limit), u, e, sums,
-                       products, j0, j1)  # fmt: skip
+        _draw_box_disc(key, draw, scale, add, a, U0, lower, upper, p, q, float(limit), u, e,
+                       sums, products, j0, j1)  # fmt: skip
 
 
 @dataclasses.dataclass(frozen=True)
@@ -215,6 +237,7 @@ class Draw:
     `into_box` bounds each row as it is drawn (draw_box), both with the same values.
 
     key, draw: ints in [0, 2^64). shape: (N, nu, K). scale: (nu,). add: (nu, K) or None.
+    correlation: of consecutive rows (draw_normals'), 0: independent.
     """
 
     key: int
@@ -222,10 +245,12 @@ class Draw:
     shape: tuple
     scale: np.ndarray
     add: np.ndarray | None = None
+    correlation: float = 0.0
 
     def array(self, threads=1):
         """eps (N, nu, K), drawn on `threads` threads (the same values for every number)."""
-        return draw_normals(self.key, self.draw, self.shape, self.scale, self.add, threads)
+        return draw_normals(self.key, self.draw, self.shape, self.scale, self.add, threads,
+                            self.correlation)  # fmt: skip
 
     def __array__(self, dtype=None, copy=None):
         return self.array() if dtype is None else self.array().astype(dtype, copy=False)
@@ -235,4 +260,4 @@ class Draw:
         box and a disc (agent.norm_axes of two controls, agent.norm_limit)."""
         disc = None if agent.norm_axes is None else (*agent.norm_axes, agent.norm_limit)
         draw_box(self.key, self.draw, self.scale, self.add, U0, agent.lower, agent.upper, u, e,
-                 sums, cols, products, disc)  # fmt: skip
+                 sums, cols, products, disc, self.correlation)  # fmt: skip

@@ -59,11 +59,16 @@ def dbscan_radius(controls):
     return math.sqrt(chi2.ppf(DBSCAN_SHARE, controls))
 
 
-def mean_std(sigma, perturbation, N):
-    """Sampling std (nu,) of a horizon-mean perturbation, for per-step stds sigma (nu,)."""
-    factor = {"constant": 1.0, "time_varying": 1.0 / N, "mixed": 0.5 * (1.0 + 1.0 / N)}[
-        perturbation
-    ]
+def mean_std(sigma, perturbation, N, correlation=0.0):
+    """Sampling std (nu,) of a horizon-mean perturbation, for per-step stds sigma (nu,) (and
+    the correlation a of "correlated" ones: the mean of a^|i - j| over the N^2 pairs of steps)."""
+    if perturbation == "correlated":
+        a = correlation
+        factor = ((1 + a) / (1 - a) - 2 * a * (1 - a**N) / (N * (1 - a) ** 2)) / N
+    else:
+        factor = {"constant": 1.0, "time_varying": 1.0 / N, "mixed": 0.5 * (1.0 + 1.0 / N)}[
+            perturbation
+        ]
     return np.asarray(sigma, dtype=float) * math.sqrt(factor)
 
 
@@ -258,7 +263,7 @@ class ClusteredMPPI(MPPI):
         if cost_unit is None and not self.alpha:
             raise ValueError("cost_unit is needed when alpha = 0 (it defaults to alpha)")
         self.cost_unit = self.alpha if cost_unit is None else positive("cost_unit", cost_unit)
-        self._feature_scale = mean_std(self.sigma, self.perturbation, self.N)
+        self._feature_scale = mean_std(self.sigma, self.perturbation, self.N, self.correlation)
         self._feature_inv = 1.0 / (self.N * self._feature_scale)
         self._cost_scale = self.collision_gap * self.dbscan_eps / self.cost_unit
 

@@ -36,7 +36,7 @@ from dcmppi.control.predictors.base import INPUTS
 from dcmppi.control.timer import NO_TIMER
 from dcmppi.control.validation import choice, floats, positive
 
-PERTURBATIONS = ("constant", "time_varying", "mixed")
+PERTURBATIONS = ("constant", "time_varying", "mixed", "correlated")
 AUTO = "auto"  # lambda_ chosen each step (dcmppi.control.planners.temperature)
 MAX_COORDINATE = 1e6  # |state| and |goal| bound: far beyond, squared distances overflow
 
@@ -59,8 +59,13 @@ class Controller:
       alpha: static collision weight. beta: dynamic collision weight (sampled futures).
       P: futures per moving obstacle. seed: int, None or np.random.Generator.
       perturbation: "constant" (one eps per sample over the horizon, paper Sec. IV-A),
-        "time_varying" (independent per step) or "mixed" (the sum of one constant and one
-        time-varying draw, each N(0, Sigma / 2)); default: the agent's.
+        "time_varying" (independent per step), "mixed" (the sum of one constant and one
+        time-varying draw, each N(0, Sigma / 2)) or "correlated" (each sample's steps an AR(1)
+        sequence, eps_i = a eps_{i-1} + sqrt(1 - a^2) w_i with w_i ~ N(0, Sigma): between
+        time_varying at a = 0 and constant at a = 1); default: the agent's ("smooth":
+        "correlated").
+      correlation: a in [0, 1), the step-to-step correlation of "correlated" perturbations
+        (default 0.9: about 1 s at dt = 0.1 s); only with that kind.
       resolution: cost-map cell size [m].
       obstacle_margin: added to every moving obstacle's radius in the cost [m].
       threads: threads that share the samples' draws, controls, rollouts, costs and importance
@@ -85,7 +90,8 @@ class Controller:
         candidates hold that sample's own cluster), whichever is cheaper, replaces the filtered
         plan at a step where its noise-free cost J is lower by more than the margin (a collision
         that the filter's lag or the average would meet), and is applied and warm-starts in its
-        stead; "smooth": 50, the hysteresis's margin.
+        stead (the "smooth" preset sets none: with its correlated perturbations a guard only
+        adds jerk, docs/design.md).
     Attributes: agent, predictor, objective (the last step's), diagnostics (the last step's),
       timer (the profile's hook, dcmppi.control.timer).
 
@@ -121,6 +127,7 @@ class Controller:
         P=defaults.P,
         seed=None,
         perturbation=None,
+        correlation=None,
         resolution=RESOLUTION,
         obstacle_margin=0.0,
         threads=1,
@@ -150,7 +157,10 @@ class Controller:
         self.alpha = positive("alpha", alpha, allow_zero=True)
         self.beta = positive("beta", beta, allow_zero=True)
         self.P = positive("P", P, integer=True)
-        self.perturbation = perturbation_param(perturbation, self.agent)
+        self.perturbation = perturbation_param(
+            self.option("perturbation", perturbation, None), self.agent
+        )
+        self.correlation = correlation_param(correlation, self.perturbation)
         self.resolution = positive("resolution", resolution)
         self.obstacle_margin = positive("obstacle_margin", obstacle_margin, allow_zero=True)
         self.threads = positive("threads", threads, integer=True)
@@ -186,9 +196,9 @@ class Controller:
 
     own_params = (
         "agent", "robot_radius", "dt", "K", "N", "lambda_", "ess_target", "Sigma", "gamma",
-        "alpha", "beta", "P", "seed", "perturbation", "resolution", "obstacle_margin",
-        "threads", "prediction", "preset", "change_cost", "filter_window", "filter_order",
-        "filter_guard",
+        "alpha", "beta", "P", "seed", "perturbation", "correlation", "resolution",
+        "obstacle_margin", "threads", "prediction", "preset", "change_cost", "filter_window",
+        "filter_order", "filter_guard",
     )  # fmt: skip
 
     def option(self, name, value, default):
@@ -316,9 +326,10 @@ class Controller:
 
         constant: one draw per sample and control (kept in self._raw (nu, K)), the same at
         every step; time_varying: independent draws per step; mixed: the sum of one of each,
-        both N(0, Sigma / 2), so that every kind has the per-step variance Sigma that the
-        importance term assumes. The per-step kinds are a Draw for an agent bounded by a box
-        (or a box and a disc of two controls), else an array.
+        both N(0, Sigma / 2); correlated: an AR(1) sequence of the per-step draws (correlation),
+        so that every kind has the per-step variance Sigma that the importance term assumes. The
+        per-step kinds are a Draw for an agent bounded by a box (or a box and a disc of two
+        controls), else an array.
         """
         if self.perturbation == "constant":
             raw = self._normals((1, self.nu, self.K), self.sigma)
@@ -331,7 +342,8 @@ class Controller:
             raw = self._normals((1, self.nu, self.K), self.sigma)[0]
             scale, add = half * self.sigma, half * raw
         self._draws += 1
-        draw = Draw(self._key, self._draws, (self.N, self.nu, self.K), scale, add)
+        shape = (self.N, self.nu, self.K)
+        draw = Draw(self._key, self._draws, shape, scale, add, self.correlation)
         axes = self.agent.norm_axes
         return draw if axes is None or len(axes) == 2 else draw.array(self.threads)
 
@@ -629,6 +641,25 @@ def perturbation_param(value, agent):
     if value not in PERTURBATIONS:
         raise ValueError(f"perturbation must be one of {PERTURBATIONS}; got {value!r}")
     return value
+
+
+def correlation_param(value, perturbation):
+    """The correlation of "correlated" perturbations: value in [0, 1), CORRELATION for None; 0
+    for the other kinds, which take none (a ValueError if one is given)."""
+    if perturbation != "correlated":
+        if value is not None:
+            raise ValueError(
+                f"correlation applies to perturbation='correlated' only; got perturbation="
+                f"{perturbation!r}: drop correlation or set perturbation='correlated'"
+            )
+        return 0.0
+    value = defaults.CORRELATION if value is None else value
+    checked = positive("correlation", value, allow_zero=True)
+    if checked >= 1.0:
+        raise ValueError(
+            f"correlation must be in [0, 1) (1 is perturbation='constant'); got {value!r}"
+        )
+    return checked
 
 
 def seed_param(seed):

@@ -114,8 +114,8 @@ LEARNED_CASES = (
     Case("dc-learned exact", "dc", "crowd-sf-20", {**LEARNED, "approximation": 0.0}, "dc-cv"),
     Case("dc-learned exact", "dc", "crowd-sf", {**LEARNED, "approximation": 0.0}, "dc-cv"),
 )
-# the smooth preset beside each paper mode on the same problem: its filter, guard and chosen
-# temperature may cost at most 15 % more
+# the smooth preset beside each paper mode on the same problem: its correlated draws, filter and
+# chosen temperature may cost at most 15 % more
 SMOOTH = {"preset": "smooth"}
 SMOOTH_CASES = tuple(
     Case(f"{label}+smooth", controller, problem, {**params, **SMOOTH}, label, target_ratio=1.15)

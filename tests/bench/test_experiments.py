@@ -215,3 +215,22 @@ def test_a_malformed_file_names_the_file_the_key_and_the_reason(tmp_path, text, 
     assert message.startswith(f"{path}: {key}: ")
     assert reason in message
     assert "\n" not in message
+
+
+def test_a_preset_held_by_a_shared_parameter_is_said(capsys):
+    """A row or --param that names a preset whose perturbation the experiment's shared
+    "mixed" holds gets one line saying so; the shipped smooth rows, which name both, none."""
+    exp = load_experiment("corridor")
+    check_specs([spec for _, spec in exp.select(episodes=1, rows=("mppi+smooth",)).specs()])
+    assert "preset" not in capsys.readouterr().err
+    plain = exp.with_params({}, {"preset": "smooth"}).select(episodes=1, rows=("mppi", "hrvo"))
+    check_specs([spec for _, spec in plain.specs()])
+    lines = [line for line in capsys.readouterr().err.splitlines() if "preset" in line]
+    assert lines == [
+        "dcmppi: mppi with preset='smooth': the experiment's shared perturbation='mixed' holds, "
+        "not the preset's perturbation='correlated'; set perturbation in the row or with --param "
+        "to choose"
+    ]
+    chosen = exp.with_params({}, {"preset": "smooth", "perturbation": "correlated"})
+    check_specs([spec for _, spec in chosen.select(episodes=1, rows=("mppi",)).specs()])
+    assert "preset" not in capsys.readouterr().err

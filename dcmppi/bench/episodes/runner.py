@@ -11,6 +11,7 @@ import dataclasses
 import functools
 import inspect
 import json
+import sys
 import time
 import zlib
 from collections.abc import Callable
@@ -97,6 +98,26 @@ def controller_for(spec: EpisodeSpec):
     return build(spec.controller, spec.controller_params, _shared_args(spec))
 
 
+def preset_held(spec: EpisodeSpec) -> list[str]:
+    """One line per parameter that the preset of `spec`'s controller sets but an experiment's
+    shared parameter sets otherwise: the shared value is explicit and wins, which a row or
+    `--param` that names the preset may not mean (the shipped rows name both)."""
+    from dcmppi.control.defaults import PRESETS
+
+    params = {**spec.shared_params, **spec.controller_params}
+    name = params.get("preset")
+    preset = PRESETS.get(name, {}) if isinstance(name, str) else {}
+    return [
+        f"{spec.controller} with preset={name!r}: the experiment's shared {key}="
+        f"{spec.shared_params[key]!r} holds, not the preset's {key}={value!r}; set {key} in the "
+        f"row or with --param to choose"
+        for key, value in preset.items()
+        if key in spec.shared_params
+        and key not in spec.controller_params
+        and spec.shared_params[key] != value
+    ]
+
+
 def check_specs(specs, others=()) -> None:
     """Build (and reset) the environment of the first spec and the controller of every distinct
     one, so that a bad name, parameter, world or missing dependency fails before anything is
@@ -118,6 +139,9 @@ def check_specs(specs, others=()) -> None:
         prediction = {**shared, **spec.controller_params}.get("prediction")
         accepted = accepted_params(resolve_controller(spec.controller), agent, prediction)
         unused = set() if accepted is None else unused - accepted
+        if accepted is None or "preset" in accepted:
+            for line in preset_held(spec):
+                print(f"dcmppi: {line}", file=sys.stderr)
         if i == 0:  # a world the task cannot draw (an impossible layout) fails here
             env = make_env(spec)
             env.reset()

@@ -61,7 +61,8 @@ def test_each_smooth_row_is_timed_against_its_paper_mode_on_its_problem():
     for c in cases.SMOOTH_CASES:
         paper = rows[c.reference, c.problem]
         assert c.label == f"{paper.label}+smooth" and c.controller == paper.controller
-        assert c.params == {**paper.params, "preset": "smooth"} and c.target_ratio == 1.15
+        smooth = {"preset": "smooth", "perturbation": "correlated"}  # as the experiments' rows
+        assert c.params == {**paper.params, **smooth} and c.target_ratio == 1.15
 
 
 def test_the_corridor_loop_walks_its_pedestrians_and_passes_their_velocities(monkeypatch):

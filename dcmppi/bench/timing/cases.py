@@ -116,7 +116,7 @@ LEARNED_CASES = (
 )
 # the smooth preset beside each paper mode on the same problem: its correlated draws, filter and
 # chosen temperature may cost at most 15 % more
-SMOOTH = {"preset": "smooth"}
+SMOOTH = {"preset": "smooth", "perturbation": "correlated"}  # as the experiments' smooth rows
 SMOOTH_CASES = tuple(
     Case(f"{label}+smooth", controller, problem, {**params, **SMOOTH}, label, target_ratio=1.15)
     for label, controller, problem, params in (
@@ -130,7 +130,10 @@ CASES = BASE_CASES + SMOOTH_CASES + LEARNED_CASES
 
 # `--fingerprint`: every row of the table and the variants that take other code paths
 # (the learned rows aside: their plans depend on a trained model's bytes)
-FINGERPRINT_CASES = BASE_CASES + (
+CORRELATED = {"agent": "holonomic", "perturbation": "correlated"}
+VARIANTS = (
+    Case("mppi+smooth guard", "mppi", "corridor", {**WALK, **SMOOTH, "filter_guard": 50.0}),
+    Case("clustered correlated", "clustered", "forest", CORRELATED),
     Case("dc ekf", "dc", "crowd", {"prediction": "ekf"}),
     Case("dc tv", "dc", "crowd", TV),
     Case("dc unicycle", "dc", "crowd", {"agent": "unicycle"}),
@@ -143,6 +146,7 @@ FINGERPRINT_CASES = BASE_CASES + (
     Case("mppi unicycle mixed", "mppi", "forest", {"agent": "unicycle", **MIXED}),
     Case("mppi holonomic tv", "mppi", "forest", {"agent": "holonomic", **TV}),
 )
+FINGERPRINT_CASES = BASE_CASES + SMOOTH_CASES + VARIANTS
 
 # `--profile`
 PROFILE_CASES = (

@@ -1,7 +1,7 @@
 """Golden trajectories: every planner's actions, bit for bit, against those stored in tests/golden/.
 
 Each group is the sha1 of float64 actions: closed loops of the timing cases (`dcmppi timing
---fingerprint`'s 34 cases: every planner, agent, perturbation kind and predictor) over STEPS
+--fingerprint`'s cases: every planner, agent, perturbation kind and predictor) over STEPS
 steps, the same over the fingerprint's 100 steps (slow), and bench episodes on the MuJoCo plant
 (with their outcome and step count). The last bits of sums and transcendental functions depend
 on the machine's SIMD kernels (provenance.kernels), so the hashes are stored per kernels, one
@@ -20,7 +20,7 @@ from threadpoolctl import threadpool_limits
 
 from dcmppi.bench.episodes.runner import Episode, EpisodeSpec
 from dcmppi.bench.results.provenance import kernels
-from dcmppi.bench.timing.cases import FINGERPRINT_CASES
+from dcmppi.bench.timing.cases import FINGERPRINT_CASES, PRESET_VARIANTS
 from dcmppi.bench.timing.fingerprint import fingerprint
 
 GOLDEN = pathlib.Path(__file__).resolve().parent / "golden"
@@ -60,9 +60,12 @@ def sha1(actions) -> str:
     return hashlib.sha1(np.ascontiguousarray(actions, dtype=np.float64).tobytes()).hexdigest()
 
 
-def loop_hashes(steps: int) -> dict:
-    """{"label @ problem": sha1} of every fingerprint case over `steps` closed-loop steps."""
-    rows = fingerprint(FINGERPRINT_CASES, steps)
+def loop_hashes(steps: int, preset: bool = False) -> dict:
+    """{"label @ problem": sha1} of the fingerprint cases over `steps` closed-loop steps: the
+    smooth preset's (PRESET_VARIANTS, a group of their own, so that the kernels recorded before
+    them keep their other groups) or the others."""
+    cases = [c for c in FINGERPRINT_CASES if (c in PRESET_VARIANTS) == preset]
+    rows = fingerprint(cases, steps)
     hashes = {f"{r['case']} @ {r['problem']}": r["sha1"] for r in rows}
     assert len(hashes) == len(rows), "two fingerprint cases share a label and problem"
     return hashes
@@ -121,6 +124,10 @@ def check(group: str, now: dict) -> None:
 
 def test_short_loops_of_every_planner_agent_and_perturbation():
     check("loops", loop_hashes(STEPS))
+
+
+def test_short_loops_of_the_smooth_preset():
+    check("preset loops", loop_hashes(STEPS, preset=True))
 
 
 def test_bench_episodes_on_the_plant():

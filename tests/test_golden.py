@@ -20,7 +20,7 @@ from threadpoolctl import threadpool_limits
 
 from dcmppi.bench.episodes.runner import Episode, EpisodeSpec
 from dcmppi.bench.results.provenance import kernels
-from dcmppi.bench.timing.cases import FINGERPRINT_CASES, PRESET_VARIANTS
+from dcmppi.bench.timing.cases import BASE_CASES, PRESET_VARIANTS, VARIANTS
 from dcmppi.bench.timing.fingerprint import fingerprint
 
 GOLDEN = pathlib.Path(__file__).resolve().parent / "golden"
@@ -64,8 +64,7 @@ def loop_hashes(steps: int, preset: bool = False) -> dict:
     """{"label @ problem": sha1} of the fingerprint cases over `steps` closed-loop steps: the
     smooth preset's (PRESET_VARIANTS, a group of their own, so that the kernels recorded before
     them keep their other groups) or the others."""
-    cases = [c for c in FINGERPRINT_CASES if (c in PRESET_VARIANTS) == preset]
-    rows = fingerprint(cases, steps)
+    rows = fingerprint(PRESET_VARIANTS if preset else BASE_CASES + VARIANTS, steps)
     hashes = {f"{r['case']} @ {r['problem']}": r["sha1"] for r in rows}
     assert len(hashes) == len(rows), "two fingerprint cases share a label and problem"
     return hashes

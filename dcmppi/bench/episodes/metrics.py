@@ -28,7 +28,7 @@ class Diagnosis:
     set; fallback: whether `chosen == -1` (Alg. 1 over all samples) where `labels` is set;
     deviation: Tube-MPPI's real-to-nominal position distance at the start of the step, before
     any reset (`nominal_deviation`; else |x[:2] - nominal_state[:2]| where `nominal_state` is
-    set); guarded: whether the smooth preset's guard replaced the filtered plan by the plan as
+    set); guarded: whether the filter's guard replaced the filtered plan by the plan as
     optimised or the least-cost sample (`guarded`), where the controller has a guard
     (`filter_guard` set).
     """

@@ -60,7 +60,7 @@ SMOOTHNESS = (
     "commit_delay",
     "side_switches",
 )
-# the side of the task blocked's obstacle that the plans take, and the smooth preset's guard
+# the side of the task blocked's obstacle that the plans take, and the filter's guard
 PLANNED = ("plan_commit_time", "plan_commit_delay", "plan_side_switches", "guard_share")
 # a replay's recorded person (the task replay: dcmppi.bench.episodes.runner.Episode._human)
 HUMAN = ("scene", "recording", "person", "human_time", "human_path_length", "frame_path_length")

@@ -17,7 +17,7 @@ from dcmppi.bench.episodes.metrics import FieldMetrics, mean_jerk, spl, time_to_
 from dcmppi.bench.episodes.runner import EpisodeSpec, act, run_episode
 from dcmppi.bench.experiments import load_experiment
 from dcmppi.bench.reports.report import metrics_table, write_report
-from dcmppi.bench.results.database import FIELD_METRICS, SCHEMA_VERSION, ResultsDB
+from dcmppi.bench.results.database import ADDED, SCHEMA_VERSION, ResultsDB
 from dcmppi.bench.results.stats import bootstrap_median, field_metrics
 
 
@@ -223,7 +223,7 @@ def test_an_older_database_is_read_with_dashes_and_upgraded(tmp_path):
     db.end_run()
     db.close()
     with sqlite3.connect(path) as c:  # as schema 3 wrote it
-        for name in FIELD_METRICS:
+        for name in ADDED[4]:
             c.execute(f"ALTER TABLE episodes DROP COLUMN {name}")
         c.execute("UPDATE meta SET value = '3' WHERE key = 'schema'")
     text = write_report(path, tmp_path / "out", plots=False)
@@ -238,7 +238,7 @@ def test_an_older_database_is_read_with_dashes_and_upgraded(tmp_path):
         assert c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone() == (
             str(SCHEMA_VERSION),
         )
-        assert {r[1] for r in c.execute("PRAGMA table_info(episodes)")} >= set(FIELD_METRICS)
+        assert {r[1] for r in c.execute("PRAGMA table_info(episodes)")} >= set(ADDED[4])
 
 
 def _rows(results, label="dc", noise="none"):

@@ -441,4 +441,5 @@ class PlanSides:
         }
 
 
+NO_SIDES = dict.fromkeys(("commit_time", "commit_delay", "side_switches"))
 NO_PLAN_SIDES = dict.fromkeys(("plan_commit_time", "plan_commit_delay", "plan_side_switches"))

@@ -16,7 +16,15 @@ from __future__ import annotations
 
 import dataclasses
 
-from dcmppi.bench.episodes.metrics import NEAR, PERSONAL_SPACE, STOP_SPEED, TURN_DEADBAND
+from dcmppi.bench.episodes.metrics import (
+    FREE_SPACE,
+    NEAR,
+    PERSONAL_SPACE,
+    SLOW_SHARE,
+    STOP_SPEED,
+    TURN_DEADBAND,
+    WAIT_SPEED,
+)
 
 FIRST_SCHEMA = 2  # the oldest schema the database reads: its columns are `since` this
 PYTHON = {"TEXT": (str,), "INTEGER": (int,), "REAL": (float, int), "BLOB": (bytes,)}
@@ -396,6 +404,38 @@ COLUMNS = (
         digits=1,
         percent=True,
         optional=True,
+    ),
+    # where the time goes
+    Column(
+        "time_waiting",
+        "REAL",
+        f"the time of the steps at which the robot's mean speed was below {WAIT_SPEED:g} m/s",
+        since=8,
+        unit="s",
+        tables=("diagnostics",),
+        title="Waiting",
+        digits=1,
+    ),
+    Column(
+        "time_slow",
+        "REAL",
+        "the time of the steps that started in free space, no obstacle's surface (static, wall "
+        f"or moving) within {FREE_SPACE:g} m of the robot's, at which its mean speed was below "
+        f"{100 * SLOW_SHARE:g} % of the agent's top speed (waiting included)",
+        since=8,
+        unit="s",
+        tables=("diagnostics",),
+        title="Slow in free space",
+        digits=1,
+    ),
+    Column(
+        "detour",
+        "REAL",
+        "the path's length over the straight distance from the start to the goal's centre",
+        since=8,
+        tables=("diagnostics",),
+        title="Detour",
+        over="goal",
     ),
     # where the episode ended, and how it got there (replay compares them)
     Column("final_x", "REAL", "the robot's final x", since=5, unit="m"),

@@ -1,7 +1,7 @@
 """The field's crowd-navigation metrics: the functions on hand-computed cases, the compiled
 per-instant pass against its numpy expressions, the per-step recorder on a synthetic pedestrian
-sequence, real episodes' collision kinds, the database round trip, the report's table and
-`runner.act`'s keywords."""
+sequence and a synthetic walk (where the time goes), real episodes' collision kinds, the
+database round trip, the report's table and `runner.act`'s keywords."""
 
 import math
 import re
@@ -17,7 +17,7 @@ from dcmppi.bench.episodes.metrics import FieldMetrics, mean_jerk, spl, time_to_
 from dcmppi.bench.episodes.runner import EpisodeSpec, act, run_episode
 from dcmppi.bench.experiments import load_experiment
 from dcmppi.bench.reports.report import metrics_table, write_report
-from dcmppi.bench.results.database import FIELD_METRICS, SCHEMA_VERSION, ResultsDB
+from dcmppi.bench.results.database import ADDED, SCHEMA_VERSION, ResultsDB
 from dcmppi.bench.results.stats import bootstrap_median, field_metrics
 
 
@@ -110,8 +110,14 @@ class _Physics:
     def robot_pose(self):
         return np.zeros(3)
 
+    def robot_position(self):
+        return 0.0, 0.0
+
     def robot_velocity(self):
         return np.zeros(3)
+
+    def clearance(self):
+        return 0.0
 
     def moving_velocity(self):
         return np.array([[-1.2, 0.0], [0.0, 0.0]])
@@ -121,13 +127,15 @@ class _Physics:
         return np.array([[x, 0.0, math.pi, 0.3], [0.0, 2.3, 0.0, 0.3]])
 
 
-def _env(physics, pref_speed=(1.5, 1.0), moving=2):
+def _env(physics, pref_speed=(1.5, 1.0), moving=2, goal=(1.0, 0.0)):
     world = types.SimpleNamespace(
-        moving=np.zeros((moving, 4)), moving_pref_speed=np.asarray(pref_speed)[:moving]
+        moving=np.zeros((moving, 4)),
+        moving_pref_speed=np.asarray(pref_speed)[:moving],
+        start=np.zeros(3),
+        goal=np.asarray(goal),
     )
-    return types.SimpleNamespace(
-        physics=physics, task=types.SimpleNamespace(world=world), control_timestep=lambda: 0.5
-    )
+    task = types.SimpleNamespace(world=world, agent=types.SimpleNamespace(max_speed=1.0))
+    return types.SimpleNamespace(physics=physics, task=task, control_timestep=lambda: 0.5)
 
 
 def _play(physics, **world):
@@ -147,11 +155,41 @@ def test_field_metrics_on_a_synthetic_sequence():
     # within 2 m: A four times (1 - 1.2 / 1.5 = 0.2), B five times (standing: 1)
     assert r["ped_speed_loss"] == pytest.approx((4 * 0.2 + 5 * 1.0) / 9)
     assert r["jerk_mean"] == 0.0
+    assert r["time_waiting"] == 2.0 and r["time_slow"] == 0.0  # standing, never in free space
+    assert r["detour"] == 0.0
     # today's arcs have no preferred speeds (nan) to lose; a world without moving obstacles
     # has no pedestrian metrics at all
     assert _play(_Physics(), pref_speed=np.full(2, np.nan))["ped_speed_loss"] is None
     r = _play(_Physics(), moving=0)
     assert all(r[k] is None for k in ("min_ped_gap", "personal_space_share", "min_ttc"))
+
+
+class _Walker(_Physics):
+    """The robot along x at 0, 0.04, 0.96, 1.0 and 0.5 m/s over steps of 0.5 s, the nearest
+    obstacle's surface 3, 1, 3, 3, 2 and 0 m from its own at the instants."""
+
+    X = (0.0, 0.0, 0.02, 0.5, 1.0, 1.25)
+    CLEARANCE = (3.0, 1.0, 3.0, 3.0, 2.0, 0.0)
+
+    def robot_position(self):
+        return self.X[self.k], 0.0
+
+    def clearance(self):
+        return self.CLEARANCE[self.k]
+
+
+def test_where_the_time_goes_on_a_synthetic_walk():
+    walker = _Walker()
+    metrics = FieldMetrics(_env(walker, moving=0))
+    for _ in range(5):
+        walker.k += 1
+        metrics.read(walker)
+    r = metrics.result()
+    assert r["time_waiting"] == 1.0  # the first two steps, below 0.1 m/s
+    assert r["time_slow"] == 1.0  # below 0.9 m/s in free space: the first and last steps
+    assert r["detour"] == 1.25  # 1.25 m of path for 1 m from start to goal
+    r = FieldMetrics(_env(_Walker(), moving=0, goal=(0.0, 0.0))).result()  # no step yet
+    assert (r["time_waiting"], r["time_slow"], r["detour"]) == (0.0, 0.0, None)
 
 
 @pytest.mark.parametrize(("task", "kind"), [("blocked", "static"), ("crossing", "pedestrian")])
@@ -223,7 +261,7 @@ def test_an_older_database_is_read_with_dashes_and_upgraded(tmp_path):
     db.end_run()
     db.close()
     with sqlite3.connect(path) as c:  # as schema 3 wrote it
-        for name in FIELD_METRICS:
+        for name in ADDED[4]:
             c.execute(f"ALTER TABLE episodes DROP COLUMN {name}")
         c.execute("UPDATE meta SET value = '3' WHERE key = 'schema'")
     text = write_report(path, tmp_path / "out", plots=False)
@@ -238,7 +276,7 @@ def test_an_older_database_is_read_with_dashes_and_upgraded(tmp_path):
         assert c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone() == (
             str(SCHEMA_VERSION),
         )
-        assert {r[1] for r in c.execute("PRAGMA table_info(episodes)")} >= set(FIELD_METRICS)
+        assert {r[1] for r in c.execute("PRAGMA table_info(episodes)")} >= set(ADDED[4])
 
 
 def _rows(results, label="dc", noise="none"):

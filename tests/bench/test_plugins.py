@@ -125,7 +125,7 @@ def test_entry_points_appear_by_name(monkeypatch, capsys):
     result = json.loads(capsys.readouterr().out)
     assert result["controller"] == "straight" and result["outcome"] is not None
     assert result["ess_mean"] is None and result["clusters_mean"] is None
-    assert len(result["final_pose"]) == 3 and "trace" not in result  # the trace is bytes
+    assert result["final_x"] > 0 and "trace" not in result  # the trace is bytes
 
 
 def test_a_user_controller_is_warmed_up_once_per_process():

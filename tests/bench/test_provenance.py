@@ -9,7 +9,7 @@ import pytest
 from dcmppi.bench.episodes.runner import EpisodeSpec
 from dcmppi.bench.experiments import load_experiment
 from dcmppi.bench.results import provenance
-from dcmppi.bench.results.database import SCHEMA_VERSION, ProvenanceMismatch, ResultsDB
+from dcmppi.bench.results.database import ADDED, SCHEMA_VERSION, ProvenanceMismatch, ResultsDB
 
 CONFIG = {
     "task": "forest",
@@ -206,14 +206,15 @@ def test_a_schema_4_database_opens_and_upgrades(tmp_path):
     db.close()
     with sqlite3.connect(path) as c:  # make it a schema 4 database as dcmppi wrote it
         c.execute("DROP TABLE runs")
-        for name in ("run_id", "traceback", "final_x", "final_y", "final_theta", "trace"):
+        for name in ADDED[5]:
             c.execute(f"ALTER TABLE episodes DROP COLUMN {name}")
         c.execute("UPDATE meta SET value = '4' WHERE key = 'schema'")
     old = ResultsDB(path)  # read-only: nothing converted
     assert old.runs() == [] and old.rows()[0]["run_id"] is None
     assert old.row("none", "mppi", 0)["trace"] is None
     old.close()
-    _run(path, PROV, [(1, {**RESULT, "final_pose": [1.0, 2.0, 0.5], "trace": b"x"})])
+    pose = {"final_x": 1.0, "final_y": 2.0, "final_theta": 0.5}
+    _run(path, PROV, [(1, {**RESULT, **pose, "trace": b"x"})])
     db = ResultsDB(path)
     assert [(r["env_index"], r["run_id"]) for r in db.rows()] == [(0, None), (1, 1)]
     assert db.row("none", "mppi", 1)["final_y"] == 2.0

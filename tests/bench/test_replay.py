@@ -79,7 +79,8 @@ def test_an_episode_result_holds_its_trace_and_final_pose():
     trace = decode_trace(result["trace"])
     assert trace.shape == (result["steps"] + 1, 3) and trace.dtype == np.float32
     assert (trace[:, :2] == result["path"].astype(np.float32)).all()
-    assert trace[-1].tolist() == np.float32(result["final_pose"]).tolist()
+    final = [result["final_x"], result["final_y"], result["final_theta"]]
+    assert trace[-1].tolist() == np.float32(final).tolist()
     assert trace[0, 0] < trace[-1, 0]  # it drove toward the goal (+x)
     assert (decode_trace(encode_trace(trace)) == trace).all()
 

@@ -380,7 +380,7 @@ def test_a_row_keeps_the_final_pose_and_the_trace(tmp_path):
     db.record(
         ("none", "mppi", 3),
         _spec(),
-        {**_result("goal"), "final_pose": [1.0, 2.0, -0.5], "trace": trace},
+        {**_result("goal"), "final_x": 1.0, "final_y": 2.0, "final_theta": -0.5, "trace": trace},
     )
     db.close()
     db = ResultsDB(tmp_path / "r.db")

@@ -1,4 +1,4 @@
-"""The smoothness, commitment and per-scene tables of a report, and the columns schemas 6 and 7
+"""The smoothness, commitment and per-scene tables of a report, and the columns schemas 6 to 8
 added in an older database: read as NULL, added when it is opened to write, its rows kept."""
 
 import math
@@ -15,6 +15,7 @@ from dcmppi.bench.reports.report import own_tracks, replay_table, smoothness_tab
 from dcmppi.bench.results.database import ADDED, SCHEMA_VERSION, ResultsDB
 from dcmppi.bench.results.stats import replay_scenes, smoothness
 from dcmppi.bench.runs.execution import run_experiment
+from dcmppi.control.defaults import DT
 from dcmppi.tasks import recordings
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -29,7 +30,7 @@ def crowds():
     return folder
 
 
-SINCE_5 = (*ADDED[6], *ADDED[7])  # the columns schema 5 lacks
+SINCE_5 = (*ADDED[6], *ADDED[7], *ADDED[8])  # the columns schema 5 lacks
 
 
 def _row(label, i, **values):
@@ -120,7 +121,7 @@ def test_replays_per_scene_ratios_and_freezing():
 
 
 def _old_database(tmp_path, schema=5):
-    """A complete static database, then made as `schema` (5 or 6) wrote it."""
+    """A complete static database, then made as `schema` (5, 6 or 7) wrote it."""
     exp = load_experiment("static").select(2, ("mppi",), ("none",))
     path = tmp_path / "old.db"
     db = ResultsDB(path, exp.config())
@@ -151,12 +152,13 @@ def test_a_schema_5_database_reports_and_upgrades_keeping_its_rows(tmp_path):
     old.close()
     ResultsDB(path, exp.config()).close()  # opening to write adds the columns
     with sqlite3.connect(path) as c:
-        assert c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone() == ("7",)
+        assert c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone() == (
+            str(SCHEMA_VERSION),
+        )
         columns = {r[1] for r in c.execute("PRAGMA table_info(episodes)")}
         assert columns >= set(SINCE_5)
         kept = c.execute("SELECT env_index, outcome, path_length, jerk_mean FROM episodes")
         assert kept.fetchall() == before
-    assert SCHEMA_VERSION == 7
 
 
 def test_a_schema_6_database_reports_its_path_sides_and_upgrades(tmp_path):
@@ -177,9 +179,47 @@ def test_a_schema_6_database_reports_its_path_sides_and_upgrades(tmp_path):
     db.close()
     assert [r["plan_side_switches"] is None for r in rows] == [True, True, False]
     with sqlite3.connect(path) as c:
-        assert c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone() == ("7",)
+        assert c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone() == (
+            str(SCHEMA_VERSION),
+        )
         kept = c.execute("SELECT env_index, outcome, path_length, jerk_mean FROM episodes")
         assert kept.fetchall()[:2] == before
+
+
+def test_a_schema_7_database_reports_without_the_time_columns_and_upgrades(tmp_path):
+    assert SCHEMA_VERSION == 8 and ADDED[8] == ("time_waiting", "time_slow", "detour")
+    exp, path, _ = _old_database(tmp_path, schema=7)
+    with sqlite3.connect(path) as c:
+        before = c.execute("SELECT * FROM episodes ORDER BY env_index").fetchall()
+    text = write_report(path, tmp_path / "out", plots=False)  # read-only: nothing converted
+    diagnostics = next(b for b in text.split("\n\n") if b.startswith("| Noise | Row | ESS"))
+    head, _, line = diagnostics.splitlines()
+    assert head.endswith("| Waiting [s] | Slow in free space [s] | Detour |")
+    assert line.endswith("| - | - | - |") and not re.search(r"\bnan\b", text)
+    with sqlite3.connect(path) as c:
+        assert c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone() == ("7",)
+    old = ResultsDB(path)
+    assert all(r[name] is None for r in old.rows() for name in ADDED[8])
+    old.close()
+    db = ResultsDB(path, exp.config())  # opening to write adds the columns, keeps the rows
+    spec = EpisodeSpec("blocked", "mppi", "none", 2, {}, SMALL)
+    result = run_episode(spec)
+    db.record(("none", "mppi", 2), spec, result)
+    rows = db.rows()
+    db.close()
+    assert [r["detour"] is None for r in rows] == [True, True, False]
+    assert rows[2]["detour"] == pytest.approx(result["path_length"] / 20.0)  # start to goal
+    assert 0 <= rows[2]["time_waiting"] <= rows[2]["steps"] * DT
+    assert 0 <= rows[2]["time_slow"] <= rows[2]["steps"] * DT
+    with sqlite3.connect(path) as c:
+        assert c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone() == ("8",)
+        kept = c.execute("SELECT * FROM episodes ORDER BY env_index").fetchall()
+    assert [row[: len(before[0])] for row in kept[:2]] == before  # every old value kept
+    assert kept[0][len(before[0]) :] == (None, None, None)  # the added columns, NULL
+    text = write_report(path, tmp_path / "out", plots=False)
+    diagnostics = next(b for b in text.split("\n\n") if b.startswith("| Noise | Row | ESS"))
+    cells = diagnostics.splitlines()[2].split(" | ")
+    assert cells[-3] == f"{rows[2]['time_waiting']:.1f}"  # the one episode that records it
 
 
 def test_a_tiny_replay_run_reports_its_scenes(tmp_path):

@@ -3,6 +3,7 @@
     runner.py        EpisodeSpec, Episode, run_episode: one task, one controller, one seed
     plugins.py       controllers by name: built-ins, entry points, module:Class strings
     metrics.py       the field's per-episode metrics (clearance, jerk, path irregularity, ...)
+    columns.py       every column of an episode's row, declared once; EpisodeResult
     futures.py       the moving obstacles' own futures (the oracle, reachability)
     reachability.py  which episodes an ideal robot could solve
     snapshot.py      one planning step of several controllers (paper Fig. 2 and 4)

@@ -106,6 +106,9 @@ def _count_labels(labels):
 
 PERSONAL_SPACE = 0.5  # [m] a pedestrian's surface this close to the robot's is in its space
 NEAR = 2.0  # [m] pedestrians this close (surface to surface) count in the speed loss
+WAIT_SPEED = 0.1  # [m/s] a step slower than this (its mean speed) is waiting
+FREE_SPACE = 2.0  # [m] no obstacle's surface this close to the robot's: in free space
+SLOW_SHARE = 0.9  # a step slower than this share of the agent's top speed is slow
 
 
 def time_to_collision(position, velocity, radius) -> np.ndarray:
@@ -160,11 +163,13 @@ def spl(success: bool, start, goal, tolerance: float, path_length: float) -> flo
 
 
 class FieldMetrics:
-    """The field's crowd-navigation metrics of an episode, from the simulation's truth read at
-    every control instant (the start and after every step): the robot's position and velocity
-    and the moving obstacles' positions, radii and velocities (`moving_velocity()`) from
-    `env.physics`, their preferred speeds from `env.task.world.moving_pref_speed` (nan: none,
-    as for today's Dubins arcs).
+    """The field's crowd-navigation metrics of an episode and where its time goes, from the
+    simulation's truth read at every control instant (the start and after every step): the
+    robot's position and velocity, the clearance (`clearance()`: the nearest obstacle's
+    surface, static, wall or moving, from the robot's) and the moving obstacles' positions,
+    radii and velocities (`moving_velocity()`) from `env.physics`, their preferred speeds from
+    `env.task.world.moving_pref_speed` (nan: none, as for today's Dubins arcs); the agent's
+    top speed, the start and the goal from `env.task`.
     """
 
     def __init__(self, env):
@@ -176,6 +181,10 @@ class FieldMetrics:
         pref = np.asarray(world.moving_pref_speed, dtype=np.float64)
         self.pref_speed = pref if np.isfinite(pref).all() else None
         self.velocity: list[np.ndarray] = []  # the robot's planar velocity at each instant
+        self.position: list[tuple] = []  # the robot's x, y at each instant
+        self.clearance: list[float] = []  # the task's clearance at each instant
+        self.top_speed = env.task.agent.max_speed
+        self.straight = float(np.hypot(*(world.goal[:2] - world.start[:2])))
         self.instants = 0
         self.min_gap = math.inf
         self.personal = 0
@@ -189,9 +198,12 @@ class FieldMetrics:
         obstacle's centre p, radius R and velocity u, rel = p - r and the gap |rel| - R -
         robot_radius (np.hypot), the instant's smallest gap, whether any is below
         PERSONAL_SPACE, its smallest time_to_collision(rel, u - w, R + robot_radius), and with
-        preferred speeds s the sum (np.sum) of 1 - |u| / s (np.hypot) over the gaps below NEAR."""
+        preferred speeds s the sum (np.sum) of 1 - |u| / s (np.hypot) over the gaps below NEAR;
+        and the robot's position and the clearance."""
         robot_v = physics.robot_velocity()[:2]
         self.velocity.append(robot_v)
+        self.position.append(physics.robot_position())
+        self.clearance.append(physics.clearance())
         if not self.pedestrians:
             return
         gap, personal, ttc, loss, near = _instant(
@@ -215,14 +227,32 @@ class FieldMetrics:
         surface), personal_space_share (share of the instants with a pedestrian within
         PERSONAL_SPACE), min_ttc [s] (inf: never on a collision course); ped_speed_loss: mean
         over instants and pedestrians within NEAR of 1 - speed / preferred speed (None without
-        preferred speeds or with none near)."""
+        preferred speeds or with none near); and `time_use`'s."""
         crowd = self.pedestrians
         return {
+            **self.time_use(),
             "jerk_mean": mean_jerk(self.velocity, self.dt),
             "min_ped_gap": self.min_gap if crowd else None,
             "personal_space_share": self.personal / self.instants if crowd else None,
             "min_ttc": self.min_ttc if crowd else None,
             "ped_speed_loss": self.loss_sum / self.loss_count if self.loss_count else None,
+        }
+
+    def time_use(self) -> dict:
+        """Where the time goes, over the steps between the instants: time_waiting [s], dt for
+        each step whose mean speed (the distance between its instants / dt) is below
+        WAIT_SPEED; time_slow [s], dt for each step that starts in free space (a clearance of
+        FREE_SPACE or more) with a mean speed below SLOW_SHARE of the agent's top speed
+        (waiting included); detour: the path's length (as the runner's path_length) over the
+        straight distance from the start to the goal's centre (None where they coincide)."""
+        step = np.linalg.norm(np.diff(np.asarray(self.position), axis=0), axis=1)
+        free = np.asarray(self.clearance[:-1]) >= FREE_SPACE
+        slow = free & (step < SLOW_SHARE * self.top_speed * self.dt)
+        length = float(np.sum(step))
+        return {
+            "time_waiting": np.count_nonzero(step < WAIT_SPEED * self.dt) * self.dt,
+            "time_slow": np.count_nonzero(slow) * self.dt,
+            "detour": length / self.straight if self.straight > 0 else None,
         }
 
 
@@ -441,4 +471,5 @@ class PlanSides:
         }
 
 
+NO_SIDES = dict.fromkeys(("commit_time", "commit_delay", "side_switches"))
 NO_PLAN_SIDES = dict.fromkeys(("plan_commit_time", "plan_commit_delay", "plan_side_switches"))

@@ -18,8 +18,10 @@ from collections.abc import Callable
 
 import numpy as np
 
+from dcmppi.bench.episodes.columns import EpisodeResult
 from dcmppi.bench.episodes.metrics import (
     NO_PLAN_SIDES,
+    NO_SIDES,
     Diagnosis,
     FieldMetrics,
     PlanSides,
@@ -365,7 +367,7 @@ class Episode:
         self.poses.append(self.time_step.observation["robot_pose"].copy())
         self.metrics.read(self.env.physics)
 
-    def result(self) -> dict:
+    def result(self) -> EpisodeResult:
         """The metrics of the finished episode (see `run_episode`)."""
         from dcmppi.tasks.barn import navigation_score
         from dcmppi.tasks.world_base import GOAL_TOLERANCE
@@ -381,7 +383,8 @@ class Episode:
         kind = None
         if outcome == "collision":
             kind = "pedestrian" if contact["geom"].startswith("moving") else "static"
-        return {
+        x, y, theta = (float(v) for v in self.poses[-1])
+        values = {
             "outcome": outcome,
             "success": outcome == "goal",
             "collision": outcome == "collision",
@@ -402,13 +405,16 @@ class Episode:
             "env_ms_mean": float(1e3 * np.mean(self.env_s)) if self.env_s else 0.0,
             **self.diagnosis.result(),
             "wall_s": time.perf_counter() - self.start,
-            "final_pose": [float(v) for v in self.poses[-1]],
+            "final_x": x,
+            "final_y": y,
+            "final_theta": theta,
             "goal_distance": float(np.hypot(*(path[-1] - world.goal[:2]))),
             "trace": encode_trace(self.poses),
             **self._smoothness(path, length),
             **self._commitment(path),
             **self._human(path),
         }
+        return EpisodeResult(values)
 
     def _smoothness(self, path, length) -> dict:
         """control_rate_linear [m/s^2] and control_rate_angular [rad/s^2] of the actions
@@ -447,9 +453,9 @@ class Episode:
         """In the task `blocked` (one obstacle between start and goal): commit_time [s],
         commit_delay [s] and side_switches of the path (`side_commitment`), and
         plan_commit_time [s], plan_commit_delay [s] and plan_side_switches of the plans
-        (`PlanSides`; None for a controller without a plan); else nothing."""
+        (`PlanSides`; None for a controller without a plan); else None for each."""
         if not self._blocked():
-            return {}
+            return {**NO_SIDES, **NO_PLAN_SIDES}
         world = self.env.task.world
         dt = self.env.control_timestep()
         planned = NO_PLAN_SIDES if self.plan_sides is None else self.plan_sides.result()
@@ -464,10 +470,11 @@ class Episode:
         students001; else the recording's name), recording (the file's name), person (their
         id in it), human_time [s] and human_path_length [m] (their time to the goal region and
         path to it), frame_path_length [m] (the robot's path sampled alike, at the recording's
-        frame period); else nothing."""
+        frame period); else None for each."""
         human = getattr(self.env.task, "human", None)
         if human is None:
-            return {}
+            names = "scene recording person human_time human_path_length frame_path_length"
+            return dict.fromkeys(names.split())
         from dcmppi.tasks.recordings import SCENES
         from dcmppi.tasks.replay import sampled_path_length
 
@@ -487,7 +494,7 @@ def run_episode(
     spec: EpisodeSpec,
     on_step: Callable[[Episode], None] | None = None,
     keep_path: bool = False,
-) -> dict:
+) -> EpisodeResult:
     """Run `spec` to termination and return its metrics.
 
     Args:
@@ -497,27 +504,10 @@ def run_episode(
       keep_path: also return the robot's positions, array (steps + 1, 2), under "path".
 
     Returns:
-      A dict: outcome ("goal" | "collision" | "left_map" | "time_limit"), success (the goal),
-      collision, collision_kind ("pedestrian": the first contact was a moving obstacle,
-      "static": a static one or a wall; None without collision), timeout (the time limit),
-      failure, steps, time_to_goal [s] (None unless reached), nav_score (BARN's navigation
-      score where the task gives an `optimal_time`, i.e. a BARN world; else None),
-      path_length [m], spl (success weighted by path length, see `spl`), the crowd metrics of
-      `FieldMetrics.result` (jerk_mean, min_ped_gap, personal_space_share, min_ttc,
-      ped_speed_loss), min_clearance [m], ctrl_ms_mean, ctrl_ms_p95 (controller time per
-      step, first-call costs excluded by `warm_up`), env_ms_mean, the diagnostics ess_mean,
-      clusters_mean, fallback_share, tube_deviation_p95 [m] (None where the controller records
-      none; see `Diagnosis`), wall_s, final_pose ([x, y, yaw] when it ended), goal_distance
-      ([m] from the robot's final position to the goal's centre), trace (bytes: the
-      robot's pose at every control instant, see `encode_trace`; `dcmppi.bench.runs.replay` compares
-      it); the smoothness metrics control_rate_linear [m/s^2], control_rate_angular
-      [rad/s^2], turn_sign_changes, indecision_per_m, indecision_per_s (see
-      `Episode._smoothness`); guard_share (`Diagnosis`); in the task `blocked` also
-      commit_time [s], commit_delay [s] and side_switches of the path, and plan_commit_time
-      [s], plan_commit_delay [s] and plan_side_switches of the plans (`Episode._commitment`);
-      where the robot replaces a recorded person (the
-      task `replay`) also scene, recording, person, human_time, human_path_length and
-      frame_path_length (see `Episode._human`).
+      An `EpisodeResult`: a dict of one value per episode column (its name, unit and meaning
+      declared in `dcmppi.bench.episodes.columns`; None where it does not apply: the task
+      blocked's sides elsewhere, a recorded person's figures outside the task replay, the
+      diagnostics a controller does not record), "path" too with keep_path.
     """
     episode = Episode(spec)
     if on_step is not None:

@@ -23,7 +23,8 @@ import datetime
 import os
 from pathlib import Path
 
-from dcmppi.bench.episodes.metrics import SIDE_DEADBAND, STOP_SPEED, TURN_DEADBAND
+from dcmppi.bench.episodes import columns
+from dcmppi.bench.episodes.metrics import SIDE_DEADBAND
 from dcmppi.bench.experiments import Experiment, Row
 from dcmppi.bench.results.database import TABLE_COLUMNS, ResultsDB, _canonical, writer_alive
 from dcmppi.bench.results.provenance import differences, short
@@ -31,6 +32,7 @@ from dcmppi.bench.results.stats import (
     ALL_SCENES,
     COMMIT_WITHIN,
     FREEZE_MARGIN,
+    diagnostics,
     field_metrics,
     fmt,
     noise_order,
@@ -49,66 +51,49 @@ from dcmppi.tasks.world_base import GOAL_TOLERANCE
 METRICS_NOTE = (
     "Per row over its finished episodes. Rates in % with 95 % Wilson intervals: success (the "
     "goal), collisions whose first contact was a pedestrian (moving obstacle) or a static "
-    "obstacle or wall, timeouts (the time limit). Means with 95 % percentile-bootstrap intervals "
-    "(10,000 resamples): time to goal and path length over the successful episodes; SPL "
-    "(success x shortest / max(path, shortest), shortest = the straight line to within the goal "
-    "tolerance); mean jerk of the robot's planar velocity at the control rate; minimum "
-    "surface gap to a pedestrian; personal space, the share of the control instants with a "
-    "pedestrian's surface within 0.5 m of the robot's; pedestrians' speed loss, 1 - speed / "
-    "preferred speed of those within 2 m of the robot (reactive crowds only). Minimum "
-    "time-to-collision at constant velocities: the median over episodes with its bootstrap "
-    "interval (inf: never on a collision course). '-': not applicable (no pedestrians, or not "
-    "recorded by an older database)."
+    "obstacle or wall, timeouts (the time limit). Means, and a median, with 95 % "
+    "percentile-bootstrap intervals (10,000 resamples):"
 )
+NOT_APPLICABLE = "'-': not applicable (no pedestrians, or not recorded by an older database)."
 
-# The field's metrics table: (heading, field_metrics key, digits).
-METRICS_COLUMNS = (
+# A table's columns: (heading, key of its statistics, digits).
+RATE_COLUMNS = (  # the metrics table's rates, of the outcome and collision kind
     ("Success %", "success", 1),
     ("Pedestrian collisions %", "pedestrian", 1),
     ("Static collisions %", "static", 1),
     ("Timeouts %", "timeout", 1),
-    ("Time to goal [s]", "time_to_goal", 2),
-    ("Path [m]", "path_length", 2),
-    ("SPL", "spl", 3),
-    ("Jerk [m/s^3]", "jerk_mean", 1),
-    ("Min gap [m]", "min_ped_gap", 3),
-    ("Personal space %", "personal_space_share", 1),
-    ("Min TTC [s] (median)", "min_ttc", 2),
-    ("Speed loss %", "ped_speed_loss", 1),
 )
 
-# The smoothness table: (heading, smoothness key, digits).
-SMOOTHNESS_COLUMNS = (
-    ("Jerk [m/s^3]", "jerk_mean", 1),
-    ("Control rate, velocity [m/s^2]", "control_rate_linear", 2),
-    ("Control rate, turn [rad/s^2]", "control_rate_angular", 2),
-    ("Turn sign changes per m", "indecision_per_m", 3),
-    ("Turn sign changes per s", "indecision_per_s", 3),
-)
+
+def _declared(*names: str) -> tuple:
+    """The (heading, name, digits) of declared columns."""
+    return tuple((c.heading, c.name, c.digits) for c in map(columns.BY_NAME.get, names))
+
+
+def _shown(table: str, optional: bool = False) -> tuple:
+    """The (heading, name, digits) of the columns the report's `table` shows: those shown only
+    where recorded (column.optional) or the others."""
+    return _declared(*(c.name for c in columns.shown(table) if c.optional == optional))
+
+
+METRICS_COLUMNS = RATE_COLUMNS + _shown("metrics")
+SMOOTHNESS_COLUMNS = _shown("smoothness")
 COMMIT_COLUMNS = (  # the task blocked's
-    ("Commit time [s]", "commit_time", 2),
+    *_declared("commit_time"),
     (f"Committed within {COMMIT_WITHIN:g} s %", "committed", 1),
     (f"Settled within {COMMIT_WITHIN:g} s of leaving the line %", "settled", 1),
     ("Never switched %", "never_switched", 1),
 )
 PLAN_COMMIT_COLUMNS = (  # the side of the task blocked's obstacle that the plans take
-    ("Plan: commit time [s]", "plan_commit_time", 2),
+    *_declared("plan_commit_time"),
     (f"Plan: committed within {COMMIT_WITHIN:g} s %", "plan_committed", 1),
     (f"Plan: settled within {COMMIT_WITHIN:g} s of the first side %", "plan_settled", 1),
     ("Plan: never switched %", "plan_never_switched", 1),
 )
-GUARD_COLUMN = ("Guard replaced the filtered plan, % of steps", "guard_share", 1)
 
-SMOOTHNESS_NOTE = (
-    "Means over episodes with 95 % percentile-bootstrap intervals. Jerk: the robot's planar "
-    "velocity's second difference / dt^2. Control rate: mean over steps of |u_k - u_(k-1)| / "
-    "dt of the controls the controller commanded (before control noise), the norm over the "
-    "velocity controls (holonomic u_x, u_y; unicycle v) and the turn-rate control (holonomic "
-    "u_theta; unicycle and Dubins omega) apart; '-' where the agent has none (the Dubins car's "
-    "speed is fixed). Turn sign changes: how often the turn rate of the robot's path (the rate "
-    f"of its direction of travel) changes sign, steps below {STOP_SPEED:g} m/s and turns below "
-    f"{TURN_DEADBAND:g} rad/s skipped, per metre travelled and per second."
-)
+SMOOTHNESS_NOTE = "Means over episodes with 95 % percentile-bootstrap intervals:"
+DIAGNOSTICS_COLUMNS = _shown("diagnostics")
+DIAGNOSTICS_NOTE = "Per row, the mean over its finished episodes unless marked ('-': not recorded):"
 COMMIT_NOTE = (
     "Blocked (one obstacle between start and goal): the robot's side is the sign of (goal - "
     f"start) x (robot - obstacle centre), none within {SIDE_DEADBAND:g} m of the line, counted "
@@ -129,11 +114,6 @@ PLAN_COMMIT_NOTE = (
     "obstacle); settled: kept within "
     f"{COMMIT_WITHIN:g} s of the first planned side. Rates over the episodes of controllers "
     "that plan ('-': the classical ones)."
-)
-GUARD_NOTE = (
-    "Guard: the share of the steps at which the filter's guard applied the plan as optimised "
-    "(or the least-cost sample) instead of the filtered plan (a mean over episodes, '-' for a "
-    "controller without a guard)."
 )
 REPLAY_NOTE = (
     "Per scene of the recorded people the robot replaced (the task replay), and over all "
@@ -259,21 +239,23 @@ def metrics_table(rows: list[dict], exp: Experiment) -> str:
 
 
 def smoothness_table(rows: list[dict], exp: Experiment) -> str:
-    """Smoothness per (noise, row) with 95 % intervals (see `smoothness`), with the guard's
-    share and the task blocked's commitment columns, the path's and the plans', where episodes
-    record them; '' where no episode records the control rate or indecision (an older
-    database)."""
+    """Smoothness per (noise, row) with 95 % intervals (see `smoothness`): the table's declared
+    columns (the guard's share where episodes record it) and the task blocked's commitment
+    columns, the path's and the plans', where episodes record them; '' where no episode records
+    a column of it that the metrics table does not show (an older database)."""
     stats = smoothness(rows)
-    if not any(s[key] is not None for s in stats.values() for _, key, _ in SMOOTHNESS_COLUMNS[1:]):
+    recorded = {key for s in stats.values() for key, x in s.items() if x is not None}
+    own = {c.name for c in columns.shown("smoothness") if "metrics" not in c.tables}
+    if not own & recorded:
         return ""
-    columns = SMOOTHNESS_COLUMNS
-    if any(s["guard_share"] is not None for s in stats.values()):
-        columns += (GUARD_COLUMN,)
+    shown = SMOOTHNESS_COLUMNS + tuple(
+        c for c in _shown("smoothness", optional=True) if c[1] in recorded
+    )
     if any(s["blocked"] for s in stats.values()):
-        columns += COMMIT_COLUMNS
+        shown += COMMIT_COLUMNS
     if any(s["planned"] for s in stats.values()):
-        columns += PLAN_COMMIT_COLUMNS
-    return _interval_table(stats, rows, exp, columns)
+        shown += PLAN_COMMIT_COLUMNS
+    return _interval_table(stats, rows, exp, shown)
 
 
 def _interval_table(stats: dict, rows: list[dict], exp: Experiment, columns) -> str:
@@ -356,19 +338,23 @@ def _interval(x, digits: int) -> str:
 
 
 def diagnostics_table(rows: list[dict], exp: Experiment) -> str:
-    """Controller diagnostics per (noise, row): '-' where the controller records none."""
-    stats = summarize(rows)
-    lines = [
-        "| Noise | Row | ESS per step | Clusters per step | Fallback to Alg. 1 % | "
-        "Tube deviation p95 [m] |",
-        "|---|---|---:|---:|---:|---:|",
-    ]
+    """The diagnostics table's declared columns per (noise, row) (see `diagnostics`): '-' where
+    not recorded (controllers that record none, an older database)."""
+    stats = diagnostics(rows)
+    head = "| Noise | Row | " + " | ".join(h for h, _, _ in DIAGNOSTICS_COLUMNS) + " |"
+    lines = [head, "|---|---|" + "---:|" * len(DIAGNOSTICS_COLUMNS)]
     for noise, label in groups(rows, exp):
-        s = stats[(noise, label)]
-        cells = [_num(s["ess"], 1), _num(s["clusters"], 2), _num(s["fallback_pct"], 1)]
-        cells.append(_num(s["tube_deviation_p95"], 3))
+        s = stats.get((noise, label), {})
+        cells = [_num(s.get(key), digits) for _, key, digits in DIAGNOSTICS_COLUMNS]
         lines.append(f"| {noise} | {label} | {' | '.join(cells)} |")
     return "\n".join(lines)
+
+
+def _notes(text: str, table: str) -> str:
+    """The sentences (column.explained) of the declared columns of the report's `table` that
+    the table `text` shows."""
+    head = text.split("\n", 1)[0]
+    return " ".join(c.explained for c in columns.shown(table) if f"| {c.heading} |" in head)
 
 
 def _num(x, digits: int) -> str:
@@ -654,14 +640,6 @@ def errors_section(rows: list[dict]) -> list[str]:
     return md
 
 
-DIAGNOSTICS_NOTE = (
-    "ESS: effective sample size 1 / sum(w^2) of the weights that made the plan, mean over "
-    "steps. Clusters: DBSCAN clusters per step; fallback: share of steps with no cluster, "
-    "where Alg. 1 ran over all samples (clustered and dc only). Tube deviation: the 95th "
-    "percentile over an episode's steps of |real - nominal| position, mean over episodes."
-)
-
-
 def write_report(db_paths, out_dir: str | Path, plots: bool = True, gallery: int = 0) -> str:
     """Write report.md, episodes.csv and the PNG plots into out_dir; return the text shown
     on the terminal (notices, tables, provenance).
@@ -752,9 +730,9 @@ def _markdown(data: Loaded, tables: dict, warning: str, links: dict | None) -> l
     sources = ", ".join(f"`{p}`" for p in data.paths)
     several = len(data.paths) > 1
     scores, smooth, replays = tables["scores"], tables["smoothness"], tables["replay"]
+    smooth_note = f"{SMOOTHNESS_NOTE} {_notes(smooth, 'smoothness')}"
     commit = [COMMIT_NOTE, ""] if COMMIT_COLUMNS[0][0] in smooth else []
     commit += [PLAN_COMMIT_NOTE, ""] if PLAN_COMMIT_COLUMNS[0][0] in smooth else []
-    commit += [GUARD_NOTE, ""] if GUARD_COLUMN[0] in smooth else []
     return [
         f"# dcmppi report: {exp.name} ({exp.task})",
         "",
@@ -769,16 +747,16 @@ def _markdown(data: Loaded, tables: dict, warning: str, links: dict | None) -> l
         "",
         tables["metrics"],
         "",
-        METRICS_NOTE,
+        f"{METRICS_NOTE} {_notes(tables['metrics'], 'metrics')} {NOT_APPLICABLE}",
         "",
-        *(["## Smoothness", "", smooth, "", SMOOTHNESS_NOTE, "", *commit] if smooth else []),
+        *(["## Smoothness", "", smooth, "", smooth_note, "", *commit] if smooth else []),
         *(["## Recorded people, per scene", "", replays, "", REPLAY_NOTE, ""] if replays else []),
         *(["## Navigation score", "", scores, "", SCORE_NOTE, ""] if scores else []),
         "## Controller diagnostics",
         "",
         tables["diagnostics"],
         "",
-        DIAGNOSTICS_NOTE,
+        f"{DIAGNOSTICS_NOTE} {_notes(tables['diagnostics'], 'diagnostics')}",
         "",
         "## Time per episode (wall clock of each worker)",
         "",

@@ -35,117 +35,18 @@ import tempfile
 import time
 from pathlib import Path
 
-SCHEMA_VERSION = 7
-# the crowd-navigation field's metrics (dcmppi.bench.episodes.metrics.FieldMetrics)
-FIELD_METRICS = (
-    "success",
-    "collision_kind",
-    "timeout",
-    "spl",
-    "jerk_mean",
-    "min_ped_gap",
-    "personal_space_share",
-    "min_ttc",
-    "ped_speed_loss",
-)
-REPLAY = ("run_id", "traceback", "final_x", "final_y", "final_theta", "trace")
-# smoothness and indecision (dcmppi.bench.episodes.metrics), the task blocked's side commitment
-SMOOTHNESS = (
-    "control_rate_linear",
-    "control_rate_angular",
-    "turn_sign_changes",
-    "indecision_per_m",
-    "indecision_per_s",
-    "commit_time",
-    "commit_delay",
-    "side_switches",
-)
-# the side of the task blocked's obstacle that the plans take, and the filter's guard
-PLANNED = ("plan_commit_time", "plan_commit_delay", "plan_side_switches", "guard_share")
-# a replay's recorded person (the task replay: dcmppi.bench.episodes.runner.Episode._human)
-HUMAN = ("scene", "recording", "person", "human_time", "human_path_length", "frame_path_length")
-# columns each schema version added
-ADDED = {
-    3: ("nav_score",),
-    4: FIELD_METRICS,
-    5: REPLAY,
-    6: ("goal_distance", *SMOOTHNESS, *HUMAN),
-    7: PLANNED,
-}
+from dcmppi.bench.episodes import columns
 
-COLUMNS = (
-    # key
-    ("noise", "TEXT NOT NULL"),
-    ("label", "TEXT NOT NULL"),  # the experiment's row
-    ("env_index", "INTEGER NOT NULL"),
-    # what was run
-    ("controller", "TEXT NOT NULL"),
-    ("task", "TEXT NOT NULL"),
-    ("seed", "INTEGER NOT NULL"),
-    ("run_id", "INTEGER"),  # the run (table runs) that recorded it; NULL before schema 5
-    ("status", "TEXT NOT NULL"),  # "ok" | "error"
-    ("error", "TEXT"),
-    ("traceback", "TEXT"),  # of an error, where the executor caught one
-    # metrics (NULL for errors)
-    ("outcome", "TEXT"),
-    ("success", "INTEGER"),  # the goal reached
-    ("collision", "INTEGER"),
-    ("collision_kind", "TEXT"),  # "pedestrian" | "static" (walls too); NULL without collision
-    ("timeout", "INTEGER"),  # the time limit reached
-    ("failure", "INTEGER"),
-    ("steps", "INTEGER"),
-    ("time_to_goal", "REAL"),
-    ("nav_score", "REAL"),  # BARN's navigation score (NULL outside BARN worlds)
-    ("path_length", "REAL"),
-    ("spl", "REAL"),  # success weighted by path length
-    ("jerk_mean", "REAL"),  # the robot's mean jerk [m/s^3]
-    # smoothness and indecision (NULL before schema 6)
-    ("control_rate_linear", "REAL"),  # mean |du|/dt of the velocity controls [m/s^2]
-    ("control_rate_angular", "REAL"),  # mean |du|/dt of the turn-rate control [rad/s^2]
-    ("turn_sign_changes", "INTEGER"),  # sign changes of the path's turn rate
-    ("indecision_per_m", "REAL"),  # turn_sign_changes per metre travelled
-    ("indecision_per_s", "REAL"),  # turn_sign_changes per second
-    # the task blocked's side of the obstacle (NULL in other tasks)
-    ("commit_time", "REAL"),  # [s] from the start until the side it keeps
-    ("commit_delay", "REAL"),  # [s] from the first side taken until the side it keeps
-    ("side_switches", "INTEGER"),  # changes of side after the first
-    # the same of the side each step's plan takes (NULL before schema 7, and without a plan)
-    ("plan_commit_time", "REAL"),  # [s] from the start until the planned side it keeps
-    ("plan_commit_delay", "REAL"),  # [s] from the first planned side until the side it keeps
-    ("plan_side_switches", "INTEGER"),  # changes of the planned side after the first
-    # pedestrians (moving obstacles); NULL in worlds without them
-    ("min_ped_gap", "REAL"),  # minimum surface distance [m]
-    ("personal_space_share", "REAL"),  # share of control instants with one within 0.5 m
-    ("min_ttc", "REAL"),  # minimum time-to-collision [s], Inf: never on a collision course
-    ("ped_speed_loss", "REAL"),  # mean 1 - speed / preferred speed within 2 m (reactive crowds)
-    # the recorded person the robot replaces (the task replay; NULL in other tasks)
-    ("scene", "TEXT"),  # the test scene (eth, hotel, univ, zara1, zara2) or the recording
-    ("recording", "TEXT"),  # the recording's file name
-    ("person", "INTEGER"),  # the person's id in the recording
-    ("human_time", "REAL"),  # [s] the person's time to the goal region
-    ("human_path_length", "REAL"),  # [m] their path, sampled at the recording's frame period
-    ("frame_path_length", "REAL"),  # [m] the robot's path, sampled alike
-    ("min_clearance", "REAL"),
-    ("ctrl_ms_mean", "REAL"),
-    ("ctrl_ms_p95", "REAL"),
-    ("env_ms_mean", "REAL"),
-    ("wall_s", "REAL"),
-    # controller diagnostics (NULL where the controller records none)
-    ("ess_mean", "REAL"),
-    ("clusters_mean", "REAL"),
-    ("fallback_share", "REAL"),
-    ("tube_deviation_p95", "REAL"),
-    ("guard_share", "REAL"),  # steps the filter's guard replaced the plan (NULL: no guard)
-    # where the episode ended, and how it got there (replay compares them)
-    ("final_x", "REAL"),
-    ("final_y", "REAL"),
-    ("final_theta", "REAL"),
-    ("goal_distance", "REAL"),  # [m] from the final position to the goal (NULL before schema 6)
-    ("trace", "BLOB"),  # zlib of float32 (steps + 1, 3): x, y, theta at each control instant
-    ("params", "TEXT NOT NULL"),  # JSON of the episode's full parameter set
-)
+# The episodes table (dcmppi.bench.episodes.columns declares each column): (name, SQL type)
+COLUMNS = tuple((c.name, c.sql) for c in columns.COLUMNS)
 COLUMN_NAMES = tuple(name for name, _ in COLUMNS)
-TABLE_COLUMNS = tuple(n for n in COLUMN_NAMES if n != "trace")  # rows(), episodes.csv
+SCHEMA_VERSION = max(c.since for c in columns.COLUMNS)
+# the columns each schema version after the first added
+ADDED = {
+    version: tuple(c.name for c in columns.COLUMNS if c.since == version)
+    for version in range(columns.FIRST_SCHEMA + 1, SCHEMA_VERSION + 1)
+}
+TABLE_COLUMNS = tuple(c.name for c in columns.COLUMNS if c.type != "BLOB")  # rows(), CSV
 RUNS = (
     "CREATE TABLE IF NOT EXISTS runs (run_id INTEGER PRIMARY KEY, provenance TEXT, "
     "started REAL, ended REAL)"
@@ -321,7 +222,7 @@ class ResultsDB:
         if not stored:
             raise ValueError(f"{self.path}: empty database, no experiment recorded")
         schema = stored.get("schema")
-        known = [str(v) for v in range(min(ADDED) - 1, SCHEMA_VERSION + 1)]
+        known = [str(v) for v in range(columns.FIRST_SCHEMA, SCHEMA_VERSION + 1)]
         if schema not in known or "config" not in stored:
             raise ValueError(
                 f"{self.path}: results schema {schema!r}, this dcmppi writes "
@@ -357,8 +258,8 @@ class ResultsDB:
         return {(n, c, int(i)) for n, c, i in rows}
 
     def record(self, key: tuple[str, str, int], spec, result: dict) -> None:
-        """Commit one episode: `result` is `run_episode`'s dict (its final_pose [x, y, theta]
-        and trace bytes included) or {"error": message, "traceback": text (optional)}.
+        """Commit one episode: `result` is `run_episode`'s `EpisodeResult` (or a dict of some of
+        its columns) or {"error": message, "traceback": text (optional)}.
 
         A finished episode replaces an error row of its key and is ignored where another run
         recorded it first; a key recorded with other parameters raises ConfigMismatch.
@@ -385,10 +286,6 @@ class ResultsDB:
             row.update(status="error", error=result["error"], traceback=result.get("traceback"))
         else:
             row.update({k: v for k, v in result.items() if k in row}, status="ok")
-            if result.get("final_pose") is not None:
-                row["final_x"], row["final_y"], row["final_theta"] = map(
-                    float, result["final_pose"]
-                )
         names = [n for n in COLUMN_NAMES if n in self._columns]
         where = "noise = ? AND label = ? AND env_index = ?"
         with self._write() as db:

@@ -2,7 +2,9 @@
 percentile-bootstrap intervals of mean navigation scores (BARN), alone and paired, the
 crowd-navigation field's metrics with their intervals, smoothness and indecision (the task
 blocked's commitment to a side too), and replays of recorded people per scene against the
-people the robot replaced.
+people the robot replaced, and the controller diagnostics. A declared column's figure follows its
+declaration (dcmppi.bench.episodes.columns: mean, median or mean over steps, over which episodes,
+in %).
 
 Shared by the report's tables and its plots.
 """
@@ -14,6 +16,8 @@ from collections import defaultdict
 
 import numpy as np
 
+from dcmppi.bench.episodes import columns
+from dcmppi.bench.episodes.columns import Column
 from dcmppi.tasks import NOISE_PROFILES
 from dcmppi.tasks.world_base import GOAL_TOLERANCE
 
@@ -73,11 +77,8 @@ def mcnemar_exact(b: int, c: int) -> float:
 
 def summarize(rows: list[dict]) -> dict[tuple[str, str], dict]:
     """Per (noise, row label): episodes, errors, outcome counts and rates with the failure and
-    success (goal) rates' CIs, controller ms/step, the controller diagnostics (None where not
-    recorded): ESS and clusters per step and the fallback share, each a mean over all steps,
-    and the mean over episodes of Tube-MPPI's 95th-percentile deviation from its nominal
-    state; and the number of episodes with a navigation score, their mean score and its
-    bootstrap CI (None without scores)."""
+    success (goal) rates' CIs, controller ms/step; and the number of episodes with a navigation
+    score, their mean score and its bootstrap CI (None without scores)."""
     groups = defaultdict(list)
     for r in rows:
         groups[(r["noise"], r["label"])].append(r)
@@ -87,7 +88,6 @@ def summarize(rows: list[dict]) -> dict[tuple[str, str], dict]:
         n = len(ok)
         failures = sum(r["failure"] for r in ok)
         goals = sum(r["outcome"] == "goal" for r in ok)
-        devs = [r["tube_deviation_p95"] for r in ok if r["tube_deviation_p95"] is not None]
         scores = [r["nav_score"] for r in ok if r["nav_score"] is not None]
         out[key] = {
             "episodes": n,
@@ -103,10 +103,6 @@ def summarize(rows: list[dict]) -> dict[tuple[str, str], dict]:
             "ctrl_ms": per_step(ok, "ctrl_ms_mean"),
             "goal_time_s": mean([r["time_to_goal"] for r in ok if r["outcome"] == "goal"]),
             "path_m": mean([r["path_length"] for r in ok if r["outcome"] == "goal"]),
-            "ess": per_step(ok, "ess_mean"),
-            "clusters": per_step(ok, "clusters_mean"),
-            "fallback_pct": _pct(per_step(ok, "fallback_share")),
-            "tube_deviation_p95": (sum(devs) / len(devs)) if devs else None,
             "success_ci_pct": tuple(100 * x for x in wilson(goals, n)),
             "scored": len(scores),
             "nav_score": mean(scores) if scores else None,
@@ -115,27 +111,48 @@ def summarize(rows: list[dict]) -> dict[tuple[str, str], dict]:
     return out
 
 
-# The field's metrics per episode that the report averages: column -> (rows it averages over,
-# the factor to the shown unit). "goal": episodes that reached the goal; "all": every episode.
-MEANS = {
-    "time_to_goal": ("goal", 1.0),
-    "path_length": ("goal", 1.0),
-    "spl": ("all", 1.0),
-    "jerk_mean": ("all", 1.0),
-    "min_ped_gap": ("all", 1.0),
-    "personal_space_share": ("all", 100.0),
-    "ped_speed_loss": ("all", 100.0),
-}
+def values(ok: list[dict], column: Column) -> list[float]:
+    """The values of `column` in the shown unit (x 100 for a percent) over the finished episodes
+    `ok` that record it (of the successful ones where column.over is "goal")."""
+    name, scale = column.name, column.scale
+    return [
+        scale * r[name]
+        for r in ok
+        if r.get(name) is not None and (column.over == "all" or r["outcome"] == "goal")
+    ]
+
+
+def interval(ok: list[dict], column: Column) -> tuple | None:
+    """(figure, lo, hi, n) of `column` over the finished episodes `ok` (`values`): its mean or
+    median (column.statistic) with the 95 % bootstrap interval, and the episodes with a value;
+    None where none has one."""
+    xs = values(ok, column)
+    if not xs:
+        return None
+    if column.statistic == "median":
+        return (float(np.median(xs)), *bootstrap_median(xs), len(xs))
+    return (mean(xs), *bootstrap_mean(xs), len(xs))
+
+
+def figure(ok: list[dict], column: Column) -> float | None:
+    """A row's figure of `column` over its finished episodes `ok`, without an interval: the
+    mean over all steps (statistic "per_step"), else `interval`'s figure; None where none
+    records it."""
+    if column.statistic == "per_step":
+        x = per_step(ok, column.name)
+        return None if x is None else column.scale * x
+    xs = values(ok, column)
+    if not xs:
+        return None
+    return float(np.median(xs)) if column.statistic == "median" else mean(xs)
 
 
 def field_metrics(rows: list[dict]) -> dict[tuple[str, str], dict]:
     """The field's metrics per (noise, row label) over its finished episodes: `episodes`; the
     success, pedestrian-collision, static-collision and timeout rates in % with their Wilson
     intervals, each (pct, lo, hi) (the collision kinds None when a collided episode lacks its
-    kind, an older database); per column of MEANS (value, lo, hi, n) the mean over episodes
-    with a value with its bootstrap interval, in the unit of MEANS; min_ttc: (median, lo, hi,
-    n) with the bootstrap interval of the median (inf allowed). None where no episode has a
-    value."""
+    kind, an older database); per column of the report's metrics table (columns.shown) its
+    `interval` (min_ttc's median may be inf)."""
     groups = finished_by_row(rows)
     out = {}
     for key, ok in groups.items():
@@ -149,34 +166,17 @@ def field_metrics(rows: list[dict]) -> dict[tuple[str, str], dict]:
             "static": rate(kinds.count("static"), n) if known else None,
             "timeout": rate(sum(r["outcome"] == "time_limit" for r in ok), n),
         }
-        for column, (over, scale) in MEANS.items():
-            xs = [
-                scale * r[column]
-                for r in ok
-                if r[column] is not None and (over == "all" or r["outcome"] == "goal")
-            ]
-            s[column] = (mean(xs), *bootstrap_mean(xs), len(xs)) if xs else None
-        ttc = [r["min_ttc"] for r in ok if r["min_ttc"] is not None]
-        s["min_ttc"] = (float(np.median(ttc)), *bootstrap_median(ttc), len(ttc)) if ttc else None
-        out[key] = s
+        out[key] = {**s, **{c.name: interval(ok, c) for c in columns.shown("metrics")}}
     return out
 
 
-# Smoothness per episode that the report averages over every episode with a value.
-SMOOTHNESS = (
-    "jerk_mean",
-    "control_rate_linear",
-    "control_rate_angular",
-    "indecision_per_m",
-    "indecision_per_s",
-)
 COMMIT_WITHIN = 1.0  # [s] the task blocked: commitment to a side this soon counts as prompt
 
 
 def smoothness(rows: list[dict]) -> dict[tuple[str, str], dict]:
     """Smoothness and indecision per (noise, row label) over its finished episodes: `episodes`;
-    per column of SMOOTHNESS (mean, lo, hi, n) with the bootstrap interval of the mean over the
-    episodes with a value (None: none has); guard_share: the same in % (None: no guard).
+    per column of the report's smoothness table (columns.shown) its `interval` (guard_share's
+    in %; None: no guard).
 
     Where episodes record a side of the obstacle (the task blocked: side_switches not NULL;
     `blocked` counts them, else 0): commit_time (mean, lo, hi, n) over the episodes that took a
@@ -190,12 +190,7 @@ def smoothness(rows: list[dict]) -> dict[tuple[str, str], dict]:
     groups = finished_by_row(rows)
     out = {}
     for key, ok in groups.items():
-        s = {"episodes": len(ok)}
-        for column in SMOOTHNESS:
-            xs = [r[column] for r in ok if r.get(column) is not None]
-            s[column] = (mean(xs), *bootstrap_mean(xs), len(xs)) if xs else None
-        guard = [100 * r["guard_share"] for r in ok if r.get("guard_share") is not None]
-        s["guard_share"] = (mean(guard), *bootstrap_mean(guard), len(guard)) if guard else None
+        s = {"episodes": len(ok), **{c.name: interval(ok, c) for c in columns.shown("smoothness")}}
         s["blocked"], sides = _sides(ok, "")
         s["planned"], plan_sides = _sides(ok, "plan_")
         out[key] = {**s, **sides, **plan_sides}
@@ -220,6 +215,15 @@ def _sides(ok: list[dict], prefix: str) -> tuple[int, dict]:
         prefix + "committed": rate(prompt, n) if n else None,
         prefix + "settled": rate(settled, n) if n else None,
         prefix + "never_switched": rate(kept, n) if n else None,
+    }
+
+
+def diagnostics(rows: list[dict]) -> dict[tuple[str, str], dict]:
+    """Per (noise, row label) with finished episodes: the `figure` of each column of the report's
+    diagnostics table (columns.shown) over them."""
+    return {
+        key: {c.name: figure(ok, c) for c in columns.shown("diagnostics")}
+        for key, ok in finished_by_row(rows).items()
     }
 
 
@@ -303,10 +307,6 @@ def per_step(rows: list[dict], column: str) -> float | None:
     have = [r for r in rows if r[column] is not None and r["steps"]]
     steps = sum(r["steps"] for r in have)
     return sum(r[column] * r["steps"] for r in have) / steps if steps else None
-
-
-def _pct(x: float | None) -> float | None:
-    return None if x is None else 100 * x
 
 
 def paired(rows: list[dict], noise: str, a: str, b: str) -> dict | None:

@@ -166,16 +166,15 @@ def compare(record: dict, result: dict) -> Replay:
         ok = record[name] == result[name]
         same &= ok
         lines.append(f"  {name}: {result[name]}" + ("" if ok else f" (recorded {record[name]})"))
-    pose = [record.get(f"final_{k}") for k in ("x", "y", "theta")]
+    final = [f"final_{k}" for k in ("x", "y", "theta")]
+    pose, replayed = [record.get(k) for k in final], [result[k] for k in final]
     if None in pose:
         lines.append("  final pose: not recorded (a database older than schema 5)")
     else:
-        ok = pose == result["final_pose"]
+        ok = pose == replayed
         same &= ok
-        lines.append(
-            f"  final pose: {_pose(result['final_pose'])}"
-            + ("" if ok else f" (recorded {_pose(pose)})")
-        )
+        recorded = "" if ok else f" (recorded {_pose(pose)})"
+        lines.append(f"  final pose: {_pose(replayed)}{recorded}")
     departs = None
     if record.get("trace") is None:
         lines.append("  trace: not recorded (a database older than schema 5)")

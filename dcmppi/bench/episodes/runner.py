@@ -512,7 +512,7 @@ def run_episode(
       robot's pose at every control instant, see `encode_trace`; `dcmppi.bench.runs.replay` compares
       it); the smoothness metrics control_rate_linear [m/s^2], control_rate_angular
       [rad/s^2], turn_sign_changes, indecision_per_m, indecision_per_s (see
-      `Episode._smoothness`); guard_share (`Diagnosis`); in the task `blocked` also
+      `Episode._smoothness`); in the task `blocked` also
       commit_time [s], commit_delay [s] and side_switches of the path, and plan_commit_time
       [s], plan_commit_delay [s] and plan_side_switches of the plans (`Episode._commitment`);
       where the robot replaces a recorded person (the

@@ -29,7 +29,7 @@ from dcmppi.control.kernels.sums import importance_of
 from dcmppi.control.kernels.threads import parts, run
 from dcmppi.control.objective import Objective
 from dcmppi.control.planners.diagnostics import Diagnostics
-from dcmppi.control.planners.smoothing import change_costs, filter_coefficients, savitzky_golay
+from dcmppi.control.planners.smoothing import filter_coefficients, savitzky_golay
 from dcmppi.control.planners.temperature import COLLISION_NATS, ESS_TARGET, choose_lambda
 from dcmppi.control.predictors import predictor_class
 from dcmppi.control.predictors.base import INPUTS
@@ -77,21 +77,11 @@ class Controller:
         package.module:ClassName; default `default_prediction` ("frozen"; dc: "prior"). Its
         own parameters go alongside.
       preset: a name of dcmppi.control.defaults.PRESETS: "paper" (default: the paper's
-        algorithms) or "smooth" (plans a robot can follow); it sets the options below, lambda_
-        and ess_target where they are not given.
-      change_cost: weight of the cost on control changes (dcmppi.control.planners.smoothing),
-        one number for every control or one per control, in cost units per squared unit of the
-        control (e.g. (m/s)^-2); 0: none (the default, "smooth" too).
-      filter_window, filter_order: the Savitzky-Golay filter of the plan, its odd window (>= 3;
-        0: no filter, the default; "smooth": 9) and polynomial order (< window; default 2).
-      filter_guard: a cost margin >= 0, or None (the default): no guard. With a filter, the
-        plan as optimised, or the step's least-cost sample where the planner passes it (mppi and
-        tube: an average of samples may meet what the best one avoids; the clustered planners'
-        candidates hold that sample's own cluster), whichever is cheaper, replaces the filtered
-        plan at a step where its noise-free cost J is lower by more than the margin (a collision
-        that the filter's lag or the average would meet), and is applied and warm-starts in its
-        stead (the "smooth" preset sets none: with its correlated perturbations a guard only
-        adds jerk, docs/design.md).
+        algorithms) or "smooth" (plans a robot can follow); it sets perturbation, lambda_,
+        ess_target, the filter below and clustered's hysteresis where they are not given.
+      filter_window, filter_order: the Savitzky-Golay filter of the plan
+        (dcmppi.control.planners.smoothing), its odd window (>= 3; 0: no filter, the default;
+        "smooth": 9) and polynomial order (< window; default 2).
     Attributes: agent, predictor, objective (the last step's), diagnostics (the last step's),
       timer (the profile's hook, dcmppi.control.timer).
 
@@ -133,10 +123,8 @@ class Controller:
         threads=1,
         prediction=None,
         preset=None,
-        change_cost=None,
         filter_window=None,
         filter_order=None,
-        filter_guard=None,
         **other,
     ):
         self.preset = choice("preset", "paper" if preset is None else preset, tuple(PRESETS))
@@ -165,8 +153,6 @@ class Controller:
         self.obstacle_margin = positive("obstacle_margin", obstacle_margin, allow_zero=True)
         self.threads = positive("threads", threads, integer=True)
         self.seed = seed_param(seed)
-        self.change_cost = change_cost_param(change_cost, len(self.Sigma))
-        self._change_weight = self.change_cost if self.change_cost.any() else None
         self.filter_window, self.filter_order = filter_params(
             self.option("filter_window", filter_window, 0),
             self.option("filter_order", filter_order, 2),
@@ -176,10 +162,6 @@ class Controller:
             if self.filter_window
             else None
         )
-        guard = self.option("filter_guard", filter_guard, None)
-        if guard is not None:
-            guard = positive("filter_guard", guard, allow_zero=True)
-        self.filter_guard = guard
         self.predictor = predictor(
             N=self.N, dt=self.dt, robot_radius=self.robot_radius,
             max_speed=self.agent.max_speed, alpha=self.alpha, beta=self.beta, P=self.P,
@@ -197,8 +179,7 @@ class Controller:
     own_params = (
         "agent", "robot_radius", "dt", "K", "N", "lambda_", "ess_target", "Sigma", "gamma",
         "alpha", "beta", "P", "seed", "perturbation", "correlation", "resolution",
-        "obstacle_margin", "threads", "prediction", "preset", "change_cost", "filter_window",
-        "filter_order", "filter_guard",
+        "obstacle_margin", "threads", "prediction", "preset", "filter_window", "filter_order",
     )  # fmt: skip
 
     def option(self, name, value, default):
@@ -221,7 +202,6 @@ class Controller:
         predictor's."""
         out = {n: getattr(self, n) for n in self.param_names() if n not in ("seed", "agent")}
         out["Sigma"] = self.Sigma.tolist()
-        out["change_cost"] = self.change_cost.tolist()
         return {
             "agent": self.agent.name,
             **self.agent.params,
@@ -248,7 +228,7 @@ class Controller:
         self._draws = 0
         self.U = None  # set from the agent's first guess at the first step
         self._last_lambda = None  # "auto": where the next step's search starts
-        # the controls applied at the last steps, newest last (the change cost's and filter's)
+        # the controls applied at the last steps, newest last (the filter's)
         self._applied = collections.deque(maxlen=max(1, (self.filter_window or 0) // 2))
         self.predictor.reset()
         self.diagnostics = self.diagnostics_class()
@@ -380,10 +360,6 @@ class Controller:
                 r.J[c0:c1], term = self.objective(r.states, True, whole)
                 if r.moving is not None:
                     r.moving[c0:c1] = 0.0 if term is None else term
-            if self._change_weight is not None:  # the change cost, the same from every start
-                change = self.change_costs(r.u, cols)
-                for start in range(0, len(r.J), k):  # the columns of each start state
-                    r.J[start + cols[0] : start + cols[1]] += change
 
     def importance(self, r, cols):
         """The samples cols = (j0, j1) of the Rollouts r: the importance term gamma lambda sum_i
@@ -445,51 +421,23 @@ class Controller:
         self._last_lambda = lam
         return lam
 
-    def change_costs(self, u, cols=None):
-        """The change cost (j1 - j0,) of the control sequences u[:, :, j0:j1] (u (N, nu, R);
-        cols = (j0, j1), None: all): their steps' changes and their first step's change from the
-        control applied at the last step (dcmppi.control.planners.smoothing)."""
-        j0, j1 = (0, np.shape(u)[2]) if cols is None else cols
-        previous = self._applied[-1] if self._applied else np.zeros(0)
-        weight = np.zeros(self.nu) if self._change_weight is None else self._change_weight
-        return change_costs(u, np.asarray(previous, dtype=float), weight, j0, j1)
-
-    @property
-    def has_guard(self):
-        """Whether the plan's filter has a guard (filter_guard), which weighs the step's
-        least-cost sample too."""
-        return self._filter is not None and self.filter_guard is not None
-
-    def smoothed(self, plan, x0, sample=None):
+    def smoothed(self, plan):
         """The plan (N, nu) through the Savitzky-Golay filter, the controls applied at the last
-        steps before it, projected into the agent's bounds; the plan itself without a filter.
-
-        With filter_guard: the cheaper of the plan as optimised and `sample` (N, nu) (the step's
-        least-cost sample, or None) where its noise-free cost from x0 (3,) is lower than the
-        filtered plan's by more than that margin (diagnostics.guarded says so).
-        """
+        steps before it, projected into the agent's bounds; the plan itself without a filter."""
         if self._filter is None:
             return plan
         history = np.array(self._applied).reshape(-1, self.nu)
         with self.timer("filter"):
-            filtered = bound_rows(self.agent, savitzky_golay(plan, history, self._filter))
-        if self.filter_guard is None:
-            return filtered
-        with self.timer("guard"):
-            candidates = [filtered, plan] + ([] if sample is None else [sample])
-            _, J = self.rollout_costs(x0, np.stack(candidates, axis=2))
-        best = 1 + int(np.argmin(J[1:]))
-        self.diagnostics.guarded = bool(J[best] < J[0] - self.filter_guard)
-        return candidates[best] if self.diagnostics.guarded else filtered
+            return bound_rows(self.agent, savitzky_golay(plan, history, self._filter))
 
-    def finish(self, plan, x0, sample=None):
+    def finish(self, plan):
         """Apply the plan's first controls and warm-start the next step by shifting it.
 
-        plan: (N, nu) planned from the state x0 (3,), filtered first when the planner has a
-        filter (smoothed, which may apply `sample` (N, nu) instead). Returns plan[0] (nu,) in the
-        agent's bounds (a weighted mean of bounded controls may leave them by a rounding error).
+        plan: (N, nu), filtered first when the planner has a filter (smoothed). Returns plan[0]
+        (nu,) in the agent's bounds (a weighted mean of bounded controls may leave them by a
+        rounding error).
         """
-        plan = self.smoothed(plan, x0, sample)
+        plan = self.smoothed(plan)
         self.U = shifted(plan)
         self.diagnostics.plan = plan
         return bound(self.agent, plan[0])
@@ -600,19 +548,6 @@ def state_and_goal(state, goal):
             f"got {state}, {goal}"
         )
     return state, goal
-
-
-def change_cost_param(value, nu):
-    """change_cost as weights (nu,) >= 0: a number for every control or one per control; None:
-    zeros (no change cost). A ValueError for anything else."""
-    if value is None:
-        return np.zeros(nu)
-    values = np.atleast_1d(np.asarray(floats("change_cost", value)))
-    if values.ndim != 1 or len(values) not in (1, nu):
-        raise ValueError(f"change_cost must be a number or one per control ({nu}); got {value!r}")
-    for v in values.tolist():
-        positive("change_cost", v, allow_zero=True)
-    return np.broadcast_to(values, (nu,)).astype(float)
 
 
 def filter_params(window, order):

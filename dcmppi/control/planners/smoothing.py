@@ -1,13 +1,8 @@
-"""Smoothness options that every planner shares (Controller): a cost on control changes and a
-Savitzky-Golay filter of the plan; and the clustered planners' choice of cluster with
-hysteresis. All are off by default (the paper's algorithms); `preset="smooth"` turns them on
+"""Smoothness options: a Savitzky-Golay filter of the plan that every planner shares
+(Controller), and the clustered planners' choice of cluster with hysteresis. Both are off by
+default (the paper's algorithms); `preset="smooth"` turns them on
 (dcmppi.control.defaults.PRESETS, docs/design.md).
 
-- change cost: sum_c W_c [(u_0c - a_c)^2 + sum_{i=0}^{N-2} (u_{i+1,c} - u_ic)^2] of a control
-  sequence u (N, nu), a the control applied at the previous step (no term at an episode's first
-  step), W_c the weight of control c in cost units per squared unit of that control (e.g.
-  (m/s)^-2). It joins each rollout's cost J (Controller.evaluate), so it shapes the weights of
-  every planner and the noise-free costs of the clustered planners' candidates.
 - filter: the plan's rows smoothed by the Savitzky-Golay filter of a window and polynomial order
   (nav2's MPPI: 9 and 2), the window's first half reaching back over the controls applied at
   the last steps (the plan's first row at an episode's start), its last half past the plan's
@@ -19,31 +14,6 @@ from fractions import Fraction
 
 import numba
 import numpy as np
-
-
-@numba.njit(cache=True)
-def change_costs(u, previous, weight, j0, j1):
-    """The change cost (j1 - j0,) of the sequences u[:, :, j0:j1] (u (N, nu, K)).
-
-    previous: (nu,) the control applied at the last step, or (0,): none. weight: (nu,) W_c.
-    Sums in a fixed order: over steps, then controls, for each sample.
-    """
-    n, nu, _ = u.shape
-    out = np.zeros(j1 - j0)
-    for c in range(nu):
-        w = weight[c]
-        if w == 0.0:
-            continue
-        if len(previous):
-            a = previous[c]
-            for k in range(j0, j1):
-                d = u[0, c, k] - a
-                out[k - j0] += w * d * d
-        for i in range(n - 1):
-            for k in range(j0, j1):
-                d = u[i + 1, c, k] - u[i, c, k]
-                out[k - j0] += w * d * d
-    return out
 
 
 def filter_coefficients(window, order):

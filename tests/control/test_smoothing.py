@@ -9,9 +9,14 @@ import dcmppi
 from dcmppi.control.agents import make_agent
 from dcmppi.control.defaults import PRESETS
 from dcmppi.control.kernels.projection import bound_rows
-from dcmppi.control.planners.clustered import with_hysteresis
 from dcmppi.control.planners.controller import shifted
-from dcmppi.control.planners.smoothing import continuing, filter_coefficients, savitzky_golay
+from dcmppi.control.planners.smoothing import (
+    Hysteresis,
+    PlanFilter,
+    continuing,
+    filter_coefficients,
+    savitzky_golay,
+)
 
 GOAL = np.array([30.0, 0.0])
 MODEL = np.array([1.0, 0.29, 0.0, 0.29])
@@ -64,6 +69,23 @@ def test_filtered_plan_is_applied_and_warm_starts():
         np.testing.assert_array_equal(c.U, shifted(d.plan))
         np.testing.assert_allclose(d.action, d.plan[0], atol=1e-12)
         assert np.all(np.hypot(d.plan[:, 0], d.plan[:, 1]) <= 1.5 + 1e-9)  # still in bounds
+        assert c.plan_filter.applied[-1] is d.action  # the next step's window reaches it
+
+
+def test_plan_filter_reaches_back_over_the_last_applied_controls():
+    agent = make_agent("holonomic")
+    plan_filter = PlanFilter(agent, 9, 2)
+    applied = [np.array([0.2 * i, 0.0, 0.0]) for i in range(6)]
+    for u in applied:
+        plan_filter.record(u)
+    plan = np.tile([1.2, 0.0, 0.0], (20, 1))
+    history = np.array(applied[-4:])  # the window's half before the plan: the last 4
+    expected = bound_rows(agent, savitzky_golay(plan, history, filter_coefficients(9, 2)))
+    np.testing.assert_array_equal(plan_filter(plan), expected)
+    assert expected[0, 0] < 1.2  # the slower controls before the plan pull its start down
+    plan_filter.reset()  # a new episode: the plan's first row stands for the history
+    np.testing.assert_allclose(plan_filter(plan), plan, atol=1e-12)
+    assert PlanFilter(agent, 0, 2)(plan) is plan  # no filter
 
 
 def test_hysteresis_keeps_the_continuing_cluster_within_the_margin():
@@ -72,8 +94,9 @@ def test_hysteresis_keeps_the_continuing_cluster_within_the_margin():
     Sigma = np.array([1.0, 1.0])
     assert continuing(U, U0, Sigma) == 1
     J = np.array([100.0, 120.0])
-    assert with_hysteresis(J, U, U0, Sigma, 30.0) == (1, 1)  # within the margin: kept
-    assert with_hysteresis(J, U, U0, Sigma, 10.0) == (0, 1)  # better by more: switch
+    assert Hysteresis(30.0, Sigma)(J, U, U0) == (1, 1)  # within the margin: kept
+    assert Hysteresis(10.0, Sigma)(J, U, U0) == (0, 1)  # better by more: switch
+    assert Hysteresis(0.0, Sigma)(J, U, U0) == (0, -1)  # none: the least J
     ctrl = dcmppi.make_controller("dc", agent="holonomic", seed=2, K=128, hysteresis=1e9)
     for c in head_on(ctrl, 8):
         d = c.diagnostics

@@ -45,7 +45,7 @@ from dcmppi.control.kernels.projection import horizon_sums
 from dcmppi.control.planners.diagnostics import ClusteredDiagnostics
 from dcmppi.control.planners.mppi import MPPI, effective_sample_size, mppi_update
 from dcmppi.control.planners.registry import register
-from dcmppi.control.planners.smoothing import continuing
+from dcmppi.control.planners.smoothing import Hysteresis
 from dcmppi.control.validation import positive
 
 DBSCAN_SHARE = 0.16  # share of a standard normal inside the default DBSCAN radius
@@ -113,15 +113,6 @@ def cluster_labels(features, dbscan_eps, min_samples=DBSCAN_MIN_SAMPLES, best=No
         near = (labels < 0) & (np.einsum("kd,kd->k", gap, gap) <= dbscan_eps * dbscan_eps)
         labels[near] = labels.max(initial=-1) + 1
     return labels
-
-
-def with_hysteresis(J, U, U0, Sigma, margin):
-    """(chosen, continuing) among the candidates U (M, N, nu) of noise-free costs J (M,): the
-    one that continues the warm start U0 (N, nu) (smoothing.continuing) unless another's J is
-    lower by more than `margin`, then the least J."""
-    kept = continuing(U, U0, Sigma)
-    best = int(np.argmin(J))
-    return (kept if J[kept] <= J[best] + margin else best), kept
 
 
 def cluster_updates(U0, eps, S, lambda_, labels, raw=None, bound=None):
@@ -209,7 +200,7 @@ class ClusteredMPPI(MPPI):
     and hysteresis in the choice of candidate (docs/design.md, Smoothness): a cost margin >= 0
     (0: none, the default; `preset="smooth"`: 50): the candidate that continues the warm start
     (the nearest to it, smoothing.continuing) is kept unless another's noise-free cost J is
-    lower by more than the margin.
+    lower by more than the margin (smoothing.Hysteresis).
     """
 
     own_params = ("dbscan_eps", "dbscan_min_samples", "collision_gap", "cost_unit", "hysteresis")
@@ -229,6 +220,7 @@ class ClusteredMPPI(MPPI):
         self.hysteresis = positive(
             "hysteresis", self.option("hysteresis", hysteresis, 0.0), allow_zero=True
         )
+        self.choice = Hysteresis(self.hysteresis, self.Sigma)
         self.dbscan_eps = (
             dbscan_radius(self.nu) if dbscan_eps is None else positive("dbscan_eps", dbscan_eps)
         )
@@ -237,7 +229,8 @@ class ClusteredMPPI(MPPI):
         if cost_unit is None and not self.alpha:
             raise ValueError("cost_unit is needed when alpha = 0 (it defaults to alpha)")
         self.cost_unit = self.alpha if cost_unit is None else positive("cost_unit", cost_unit)
-        self._feature_scale = mean_std(self.sigma, self.perturbation, self.N, self.correlation)
+        sigma = self.sampler.sigma
+        self._feature_scale = mean_std(sigma, self.perturbation, self.N, self.correlation)
         self._feature_inv = 1.0 / (self.N * self._feature_scale)
         self._cost_scale = self.collision_gap * self.dbscan_eps / self.cost_unit
 
@@ -267,17 +260,14 @@ class ClusteredMPPI(MPPI):
             d.cluster_controls = np.zeros((0, self.N, self.nu))
             d.cluster_costs = np.zeros(0)
         else:
-            agent, raw = self.agent, self._raw
+            agent, raw = self.agent, self.sampler.raw
             scalar = raw is not None and agent.nu == 1 and agent.lower[0] == -agent.upper[0]
             with timer("cluster updates"):
                 U, w = cluster_updates(
                     self.U, eps, S, lam, labels, raw[0] if scalar else None, agent.upper[0]
                 )
             _, Jm = self.rollout_costs(state, U.transpose(1, 2, 0))
-            if self.hysteresis:
-                best, d.continued = with_hysteresis(Jm, U, self.U, self.Sigma, self.hysteresis)
-            else:
-                best, d.continued = int(np.argmin(Jm)), -1
+            best, d.continued = self.choice(Jm, U, self.U)
             plan, w = U[best], np.where(labels == best, w, 0.0)
             d.chosen, d.cluster_controls, d.cluster_costs = best, U, Jm
         d.weights, d.ess = w, effective_sample_size(w)

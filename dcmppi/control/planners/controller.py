@@ -12,10 +12,7 @@ plus its own. Each step, the predictor turns the moving obstacles into tracks, t
 scores rollouts, and the subclass's `_solve` plans with them.
 """
 
-import collections
-import dataclasses
 import functools
-import numbers
 
 import numpy as np
 
@@ -23,22 +20,27 @@ from dcmppi.control import defaults
 from dcmppi.control.agents import make_agent
 from dcmppi.control.defaults import PRESETS
 from dcmppi.control.kernels.costs import RESOLUTION, OccupancyGrid, valid_cylinders
-from dcmppi.control.kernels.perturbations import Draw, draw_normals
-from dcmppi.control.kernels.projection import NO_SUMS, bound, bound_rows, project_columns
+from dcmppi.control.kernels.perturbations import Draw
+from dcmppi.control.kernels.projection import NO_SUMS, bound, project_columns
 from dcmppi.control.kernels.sums import importance_of
 from dcmppi.control.kernels.threads import parts, run
 from dcmppi.control.objective import Objective
 from dcmppi.control.planners.diagnostics import Diagnostics
-from dcmppi.control.planners.smoothing import filter_coefficients, savitzky_golay
-from dcmppi.control.planners.temperature import COLLISION_NATS, ESS_TARGET, choose_lambda
+from dcmppi.control.planners.observations import observed_rows, observed_velocity, state_and_goal
+from dcmppi.control.planners.rollouts import Rollouts, start_states
+from dcmppi.control.planners.sampling import Sampler, correlation_param, perturbation_param
+from dcmppi.control.planners.smoothing import PlanFilter
+from dcmppi.control.planners.temperature import (
+    AUTO,
+    COLLISION_NATS,
+    ESS_TARGET,
+    choose_lambda,
+    temperature_param,
+)
 from dcmppi.control.predictors import predictor_class
 from dcmppi.control.predictors.base import INPUTS
 from dcmppi.control.timer import NO_TIMER
-from dcmppi.control.validation import choice, floats, positive
-
-PERTURBATIONS = ("constant", "time_varying", "mixed", "correlated")
-AUTO = "auto"  # lambda_ chosen each step (dcmppi.control.planners.temperature)
-MAX_COORDINATE = 1e6  # |state| and |goal| bound: far beyond, squared distances overflow
+from dcmppi.control.validation import choice, positive, seed_param, share
 
 
 class Controller:
@@ -59,11 +61,9 @@ class Controller:
       alpha: static collision weight. beta: dynamic collision weight (sampled futures).
       P: futures per moving obstacle. seed: int, None or np.random.Generator.
       perturbation: "constant" (one eps per sample over the horizon, paper Sec. IV-A),
-        "time_varying" (independent per step), "mixed" (the sum of one constant and one
-        time-varying draw, each N(0, Sigma / 2)) or "correlated" (each sample's steps an AR(1)
-        sequence, eps_i = a eps_{i-1} + sqrt(1 - a^2) w_i with w_i ~ N(0, Sigma): between
-        time_varying at a = 0 and constant at a = 1); default: the agent's ("smooth":
-        "correlated").
+        "time_varying" (independent per step), "mixed" (one of each) or "correlated" (each
+        sample's steps an AR(1) sequence; dcmppi.control.planners.sampling); default: the
+        agent's ("smooth": "correlated").
       correlation: a in [0, 1), the step-to-step correlation of "correlated" perturbations
         (default 0.9: about 1 s at dt = 0.1 s); only with that kind.
       resolution: cost-map cell size [m].
@@ -82,8 +82,9 @@ class Controller:
       filter_window, filter_order: the Savitzky-Golay filter of the plan
         (dcmppi.control.planners.smoothing), its odd window (>= 3; 0: no filter, the default;
         "smooth": 9) and polynomial order (< window; default 2).
-    Attributes: agent, predictor, objective (the last step's), diagnostics (the last step's),
-      timer (the profile's hook, dcmppi.control.timer).
+    Attributes: agent, predictor, sampler (sampling.Sampler), plan_filter
+      (smoothing.PlanFilter), objective (the last step's), diagnostics (the last step's), timer
+      (the profile's hook, dcmppi.control.timer).
 
     A subclass implements `_solve(state)` -> (nu,) controls, and may override the seams of a
     step's per-sample work (perturbed_rollouts). sample() runs once per step on the calling
@@ -153,21 +154,21 @@ class Controller:
         self.obstacle_margin = positive("obstacle_margin", obstacle_margin, allow_zero=True)
         self.threads = positive("threads", threads, integer=True)
         self.seed = seed_param(seed)
-        self.filter_window, self.filter_order = filter_params(
+        self.sampler = Sampler(
+            self.agent, self.Sigma, self.N, self.K, self.perturbation, self.correlation,
+            self.threads,
+        )  # fmt: skip
+        self.plan_filter = PlanFilter(
+            self.agent,
             self.option("filter_window", filter_window, 0),
             self.option("filter_order", filter_order, 2),
         )
-        self._filter = (
-            filter_coefficients(self.filter_window, self.filter_order)
-            if self.filter_window
-            else None
-        )
+        self.filter_window, self.filter_order = self.plan_filter.window, self.plan_filter.order
         self.predictor = predictor(
             N=self.N, dt=self.dt, robot_radius=self.robot_radius,
             max_speed=self.agent.max_speed, alpha=self.alpha, beta=self.beta, P=self.P,
             obstacle_margin=self.obstacle_margin, **predictor_params,
         )  # fmt: skip
-        self.sigma = np.sqrt(self.Sigma)
         # gamma lambda Sigma^-1 of the importance term, per control (lambda = 1 with "auto")
         lam = 1.0 if self.lambda_ == AUTO else self.lambda_
         self._importance_weight = (self.gamma * lam) / self.Sigma
@@ -223,13 +224,11 @@ class Controller:
         if self.rng is None or seed is not None:
             s = self.seed
             self.rng = s if isinstance(s, np.random.Generator) else np.random.default_rng(s)
-            self._keys = self.rng.spawn(1)[0]  # its own stream: rng's draws stay the predictor's
-        self._key = int(self._keys.integers(2**63))  # this episode's perturbation stream
-        self._draws = 0
+            self.sampler.seed(self.rng)
+        self.sampler.reset()  # this episode's perturbation stream
         self.U = None  # set from the agent's first guess at the first step
         self._last_lambda = None  # "auto": where the next step's search starts
-        # the controls applied at the last steps, newest last (the filter's)
-        self._applied = collections.deque(maxlen=max(1, (self.filter_window or 0) // 2))
+        self.plan_filter.reset()
         self.predictor.reset()
         self.diagnostics = self.diagnostics_class()
 
@@ -280,7 +279,7 @@ class Controller:
         self.diagnostics.prediction = prediction
         u = self._solve(state)
         self.diagnostics.action = u
-        self._applied.append(u)
+        self.plan_filter.record(u)
         return u
 
     def _solve(self, state):
@@ -302,37 +301,8 @@ class Controller:
     def sample(self):
         """This step's perturbations eps (N, nu, K) from N(0, Sigma), time-major: an array, or
         a Draw of them (dcmppi.control.kernels.perturbations; np.asarray makes it) that
-        controls() makes in the pass that bounds them, row by row while the row is in the cache.
-
-        constant: one draw per sample and control (kept in self._raw (nu, K)), the same at
-        every step; time_varying: independent draws per step; mixed: the sum of one of each,
-        both N(0, Sigma / 2); correlated: an AR(1) sequence of the per-step draws (correlation),
-        so that every kind has the per-step variance Sigma that the importance term assumes. The
-        per-step kinds are a Draw for an agent bounded by a box (or a box and a disc of two
-        controls), else an array.
-        """
-        if self.perturbation == "constant":
-            raw = self._normals((1, self.nu, self.K), self.sigma)
-            self._raw = raw[0]
-            return constant_steps(raw, self.N)
-        self._raw = None  # no constant draw of the whole horizon this step
-        scale, add = self.sigma, None
-        if self.perturbation == "mixed":
-            half = np.sqrt(0.5)  # each draw N(0, Sigma / 2): the sum has variance Sigma each step
-            raw = self._normals((1, self.nu, self.K), self.sigma)[0]
-            scale, add = half * self.sigma, half * raw
-        self._draws += 1
-        shape = (self.N, self.nu, self.K)
-        draw = Draw(self._key, self._draws, shape, scale, add, self.correlation)
-        axes = self.agent.norm_axes
-        return draw if axes is None or len(axes) == 2 else draw.array(self.threads)
-
-    def _normals(self, shape, scale):
-        """The next draw of this episode's perturbation stream
-        (dcmppi.control.kernels.perturbations): z * scale[:, None] for standard normals z (1, nu,
-        K), on this thread."""
-        self._draws += 1
-        return draw_normals(self._key, self._draws, shape, scale)
+        controls() makes in the pass that bounds them (sampling.Sampler.sample)."""
+        return self.sampler.sample()
 
     def controls(self, r, cols):
         """The samples cols = (j0, j1) of the Rollouts r: the bounded controls project(r.U0 +
@@ -422,13 +392,12 @@ class Controller:
         return lam
 
     def smoothed(self, plan):
-        """The plan (N, nu) through the Savitzky-Golay filter, the controls applied at the last
-        steps before it, projected into the agent's bounds; the plan itself without a filter."""
-        if self._filter is None:
+        """The plan (N, nu) through the plan's filter (smoothing.PlanFilter), or itself without
+        one."""
+        if not self.filter_window:
             return plan
-        history = np.array(self._applied).reshape(-1, self.nu)
         with self.timer("filter"):
-            return bound_rows(self.agent, savitzky_golay(plan, history, self._filter))
+            return self.plan_filter(plan)
 
     def finish(self, plan):
         """Apply the plan's first controls and warm-start the next step by shifting it.
@@ -443,84 +412,12 @@ class Controller:
         return bound(self.agent, plan[0])
 
 
-@dataclasses.dataclass(frozen=True, slots=True)
-class Rollouts:
-    """A step's K perturbed samples rolled out from S start states, and their costs
-    (Controller.perturbed_rollouts); the seams controls(), evaluate() and importance() fill the
-    arrays in place, a range of samples at a time.
-
-      U0: (N, nu) the warm start that the samples perturb.
-      eps: (N, nu, K) the perturbations, or a Draw of them (Controller.sample).
-      u: (N, nu, K) the bounded controls project(U0 + eps).
-      e: (N, nu, K) the perturbations that remain, u - U0 (the update's and the importance
-        term's).
-      products: (nu, K) sum_i U0[i, c] e[i, c], the importance term's sums over the steps.
-      sums: (nu, K) the horizon sums of e (the clustering features), or None: not asked.
-      states: (3, N + 1, S K) the rollouts; columns s K .. s K + K - 1 start from start s.
-      J: (S K,) their costs under the step's objective.
-      moving: (S K,) J's moving-obstacle term, or None: the step has no moving obstacles.
-      importance: (K,) the importance term gamma lambda sum_i u_i^T Sigma^-1 e_i.
-    """
-
-    U0: np.ndarray | None = None
-    eps: np.ndarray | Draw | None = None
-    u: np.ndarray | None = None
-    e: np.ndarray | None = None
-    products: np.ndarray | None = None
-    sums: np.ndarray | None = None
-    states: np.ndarray | None = None
-    J: np.ndarray | None = None
-    moving: np.ndarray | None = None
-    importance: np.ndarray | None = None
-
-    @classmethod
-    def allocate(cls, U0, eps, x0, starts=1, sums=False, moving=False):
-        """Empty Rollouts of the perturbations eps (N, nu, K) (an array or a Draw) of U0
-        (N, nu) from x0 ((3,), or (3, S) with starts = S > 1), with the arrays that the seams
-        fill; sums, moving: whether to keep those too."""
-        n, nu, k = eps.shape
-        return cls(
-            U0, eps, np.empty((n, nu, k)), np.empty((n, nu, k)), np.zeros((nu, k)),
-            np.zeros((nu, k)) if sums else None, start_states(x0, n, starts, k),
-            np.empty(starts * k), np.empty(starts * k) if moving else None, np.empty(k),
-        )  # fmt: skip
-
-    @property
-    def K(self):  # noqa: N802 (the paper's name)
-        """The number of samples."""
-        return self.u.shape[2]
-
-    def spans(self, cols):
-        """The columns (c0, c1) of states, J and moving that hold the samples cols = (j0, j1):
-        one range per start state (one for all when cols are all the samples)."""
-        k, total = self.K, len(self.J)
-        if cols == (0, k):
-            return ((0, total),)
-        return tuple((c + cols[0], c + cols[1]) for c in range(0, total, k))
-
-
-def start_states(x0, n, starts, k):
-    """Rollout states (3, n + 1, starts k), empty but for the start states: x0 (3,), (3, k) or
-    (3, starts) (columns s k .. s k + k - 1 start from x0[:, s])."""
-    states = np.empty((3, n + 1, starts * k))
-    states.reshape(3, n + 1, starts, k)[:, 0] = np.reshape(x0, (3, starts, -1))
-    return states
-
-
 def shifted(plan):
     """The next step's warm start: plan (N, nu) one step on, its last row repeated."""
     out = np.empty_like(plan)
     out[:-1] = plan[1:]
     out[-1] = plan[-1]
     return out
-
-
-def constant_steps(raw, n):
-    """np.broadcast_to(raw, (n, nu, K)) of raw (1, nu, K), C-contiguous: the same read-only
-    view (a zero stride along the steps), made without numpy's general broadcasting."""
-    view = np.ndarray((n, *raw.shape[1:]), raw.dtype, raw, 0, (0, *raw.strides[1:]))
-    view.flags.writeable = False
-    return view
 
 
 def predictor_for(prediction):
@@ -534,123 +431,3 @@ def predictor_for(prediction):
             f"valid inputs: {', '.join(INPUTS)}"
         )
     return predictor
-
-
-def state_and_goal(state, goal):
-    """state (3,) and goal (2,) as float arrays; a ValueError where either has another shape or
-    a coordinate is not finite or beyond MAX_COORDINATE."""
-    state, goal = floats("state", state), floats("goal", goal)
-    if state.shape != (3,) or goal.shape != (2,):
-        raise ValueError(f"state must be (3,) and goal (2,); got {state.shape}, {goal.shape}")
-    if not all(abs(v) < MAX_COORDINATE for v in (*state.tolist(), *goal.tolist())):  # nan too
-        raise ValueError(
-            f"state and goal must be finite and within {MAX_COORDINATE:.0e} (m, rad); "
-            f"got {state}, {goal}"
-        )
-    return state, goal
-
-
-def filter_params(window, order):
-    """(filter_window, filter_order) as ints: a window 0 (no filter) or odd >= 3, an order
-    0 <= order < window; a ValueError for anything else."""
-    window = positive("filter_window", window, integer=True, allow_zero=True)
-    order = positive("filter_order", order, integer=True, allow_zero=True)
-    if window and (window < 3 or window % 2 == 0):
-        raise ValueError(f"filter_window must be 0 (no filter) or odd and >= 3; got {window}")
-    if window and order >= window:
-        raise ValueError(f"filter_order must be below filter_window ({window}); got {order}")
-    return window, order
-
-
-def share(name, value):
-    """value as a float in (0, 1] (a share of K); a ValueError for anything else."""
-    checked = positive(name, value)
-    if checked > 1.0:
-        raise ValueError(f"{name} must be in (0, 1] (a share of K); got {value!r}")
-    return checked
-
-
-def perturbation_param(value, agent):
-    """One of PERTURBATIONS, the agent's default for None; a ValueError for anything else."""
-    value = agent.default_perturbation if value is None else value
-    if value not in PERTURBATIONS:
-        raise ValueError(f"perturbation must be one of {PERTURBATIONS}; got {value!r}")
-    return value
-
-
-def correlation_param(value, perturbation):
-    """The correlation of "correlated" perturbations: value in [0, 1), CORRELATION for None; 0
-    for the other kinds, which take none (a ValueError if one is given)."""
-    if perturbation != "correlated":
-        if value is not None:
-            raise ValueError(
-                f"correlation applies to perturbation='correlated' only; got perturbation="
-                f"{perturbation!r}: drop correlation or set perturbation='correlated'"
-            )
-        return 0.0
-    value = defaults.CORRELATION if value is None else value
-    checked = positive("correlation", value, allow_zero=True)
-    if checked >= 1.0:
-        raise ValueError(
-            f"correlation must be in [0, 1) (1 is perturbation='constant'); got {value!r}"
-        )
-    return checked
-
-
-def seed_param(seed):
-    """seed unchanged if it is None, an int >= 0 or a np.random.Generator; else a ValueError."""
-    generator = isinstance(seed, np.random.Generator)
-    if not (seed is None or generator or isinstance(seed, numbers.Integral) and seed >= 0):
-        raise ValueError(f"seed must be None, an int >= 0 or a np.random.Generator; got {seed!r}")
-    return seed
-
-
-def temperature_param(value):
-    """lambda_ as a float, or "auto"; a ValueError for anything else."""
-    if isinstance(value, str) and value == AUTO:
-        return AUTO
-    try:
-        return positive("lambda_", value)
-    except ValueError:
-        raise ValueError(f"lambda_ must be a number > 0 or 'auto'; got {value!r}") from None
-
-
-def observed_rows(values, moving, name):
-    """The rows of `values` (L, ...) that belong to rows of `moving` (L, 4) that are not padding
-    (radius > 0), or None; checked only for their number of rows (the predictor checks the rest)."""
-    if values is None:
-        return None
-    values = np.asarray(values, dtype=float)
-    radius = np.zeros(0) if moving is None else np.asarray(moving, dtype=float)[:, 3]
-    if values.ndim < 1 or len(values) != len(radius):
-        raise ValueError(
-            f"{name} must have one row per row of moving ({len(radius)}); got shape {values.shape}"
-        )
-    return values[radius > 0]
-
-
-def observed_velocity(velocity, moving):
-    """The (L', 2) velocities of the rows of `moving` that are not padding (radius > 0), or None.
-
-    Args:
-      velocity: (L, 2) world-frame velocities (nan: not observed), or None.
-      moving: (L, 4) moving obstacles, already validated (costs.valid_cylinders), or None.
-    """
-    if velocity is None:
-        return None
-    velocity = np.asarray(velocity, dtype=float)
-    rows = 0 if moving is None else len(moving)
-    if velocity.shape != (rows, 2):
-        raise ValueError(
-            f"moving_velocity must have shape ({rows}, 2), one row per row of moving; "
-            f"got {velocity.shape}"
-        )
-    if not rows:  # no moving obstacles: nothing to check or select
-        return velocity
-    infinite = np.isinf(velocity).any(axis=1)
-    if infinite.any():
-        raise ValueError(
-            f"moving_velocity must be finite, or nan where not observed; infinite rows "
-            f"{np.flatnonzero(infinite)}"
-        )
-    return observed_rows(velocity, moving, "moving_velocity")

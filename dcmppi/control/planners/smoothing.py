@@ -1,19 +1,66 @@
-"""Smoothness options: a Savitzky-Golay filter of the plan that every planner shares
-(Controller), and the clustered planners' choice of cluster with hysteresis. Both are off by
-default (the paper's algorithms); `preset="smooth"` turns them on
-(dcmppi.control.defaults.PRESETS, docs/design.md).
+"""The plan's post-processing, off by default (the paper's algorithms) and on with
+`preset="smooth"` (dcmppi.control.defaults.PRESETS, docs/design.md): every planner's filter of
+the plan (PlanFilter) and the clustered planners' choice of cluster with hysteresis (Hysteresis).
 
 - filter: the plan's rows smoothed by the Savitzky-Golay filter of a window and polynomial order
   (nav2's MPPI: 9 and 2), the window's first half reaching back over the controls applied at
   the last steps (the plan's first row at an episode's start), its last half past the plan's
   end over the last row repeated; then projected into the agent's bounds. The filtered plan is
   both applied (its first row) and the next step's warm start (shifted).
+- hysteresis: the candidate that continues the warm start (continuing) is kept unless another's
+  noise-free cost J is lower by more than a margin.
 """
 
+import collections
 from fractions import Fraction
 
 import numba
 import numpy as np
+
+from dcmppi.control.kernels.projection import bound_rows
+from dcmppi.control.validation import positive
+
+
+class PlanFilter:
+    """The Savitzky-Golay filter of a plan (N, nu), the controls applied at the last steps
+    before it, projected into the agent's bounds.
+
+    Args: agent; window: 0 (no filter: the plan passes unchanged) or odd >= 3; order: of the
+    polynomial, 0 <= order < window. A ValueError names a bad window or order.
+    """
+
+    def __init__(self, agent, window, order):
+        self.agent = agent
+        self.window, self.order = filter_params(window, order)
+        self.coefficients = filter_coefficients(self.window, self.order) if self.window else None
+        self.reset()
+
+    def reset(self):
+        """Forget the applied controls (a new episode)."""
+        self.applied = collections.deque(maxlen=max(1, self.window // 2))
+
+    def record(self, u):
+        """Keep the control u (nu,) applied at this step (the next steps' windows reach it)."""
+        self.applied.append(u)
+
+    def __call__(self, plan):
+        """The plan (N, nu) filtered and bounded (N, nu); the plan itself without a filter."""
+        if not self.window:
+            return plan
+        history = np.array(self.applied).reshape(-1, self.agent.nu)
+        return bound_rows(self.agent, savitzky_golay(plan, history, self.coefficients))
+
+
+def filter_params(window, order):
+    """(window, order) as ints: a window 0 (no filter) or odd >= 3, an order 0 <= order <
+    window; a ValueError naming filter_window or filter_order for anything else."""
+    window = positive("filter_window", window, integer=True, allow_zero=True)
+    order = positive("filter_order", order, integer=True, allow_zero=True)
+    if window and (window < 3 or window % 2 == 0):
+        raise ValueError(f"filter_window must be 0 (no filter) or odd and >= 3; got {window}")
+    if window and order >= window:
+        raise ValueError(f"filter_order must be below filter_window ({window}); got {order}")
+    return window, order
 
 
 def filter_coefficients(window, order):
@@ -82,3 +129,21 @@ def continuing(U, U0, Sigma):
     perturbations, so this is the cluster whose perturbations average nearest to none)."""
     gap = (np.asarray(U) - np.asarray(U0)[None]) ** 2 / np.asarray(Sigma)
     return int(np.argmin(gap.sum(axis=(1, 2))))
+
+
+class Hysteresis:
+    """The clustered planners' choice among candidate sequences: the one that continues the warm
+    start (continuing) unless another's noise-free cost J is lower by more than `margin`, then
+    the least J; margin 0: the least J. Sigma: (nu,) the sampling variances."""
+
+    def __init__(self, margin, Sigma):
+        self.margin, self.Sigma = margin, Sigma
+
+    def __call__(self, J, U, U0):
+        """(chosen, continuing) among the candidates U (M, N, nu) of costs J (M,), for the warm
+        start U0 (N, nu); continuing is -1 with margin 0."""
+        best = int(np.argmin(J))
+        if not self.margin:
+            return best, -1
+        kept = continuing(U, U0, self.Sigma)
+        return (kept if J[kept] <= J[best] + self.margin else best), kept

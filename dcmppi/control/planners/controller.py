@@ -129,8 +129,6 @@ class Controller:
         **other,
     ):
         self.preset = choice("preset", "paper" if preset is None else preset, tuple(PRESETS))
-        lambda_ = self.option("lambda_", lambda_, defaults.LAMBDA)
-        ess_target = self.option("ess_target", ess_target, ESS_TARGET)
         self.prediction = prediction or self.default_prediction
         predictor = predictor_for(self.prediction)
         predictor_params = {n: other.pop(n) for n in predictor.own_params if n in other}
@@ -139,8 +137,8 @@ class Controller:
         self.dt = positive("dt", dt)
         self.K = positive("K", K, integer=True)
         self.N = positive("N", N, integer=True)
-        self.lambda_ = temperature_param(lambda_)
-        self.ess_target = share("ess_target", ess_target)
+        self.lambda_ = temperature_param(self.option("lambda_", lambda_, defaults.LAMBDA))
+        self.ess_target = share("ess_target", self.option("ess_target", ess_target, ESS_TARGET))
         self.Sigma = self.agent.variances(Sigma)
         self.gamma = positive("gamma", gamma, allow_zero=True)
         self.alpha = positive("alpha", alpha, allow_zero=True)
@@ -154,6 +152,19 @@ class Controller:
         self.obstacle_margin = positive("obstacle_margin", obstacle_margin, allow_zero=True)
         self.threads = positive("threads", threads, integer=True)
         self.seed = seed_param(seed)
+        self._components(predictor, predictor_params, filter_window, filter_order)
+        # gamma lambda Sigma^-1 of the importance term, per control (lambda = 1 with "auto")
+        lam = 1.0 if self.lambda_ == AUTO else self.lambda_
+        self._importance_weight = (self.gamma * lam) / self.Sigma
+        self._lambda_max = self.alpha / COLLISION_NATS if self.alpha else np.inf
+        self.timer = NO_TIMER
+        self._grid = self.objective = self.rng = None
+        self.reset(seed)
+
+    def _components(self, predictor, predictor_params, filter_window, filter_order):
+        """The step's components from the checked parameters: the sampler, the plan's filter
+        (of the given or the preset's window and order) and the predictor (of the class
+        `predictor`, with its own parameters)."""
         self.sampler = Sampler(
             self.agent, self.Sigma, self.N, self.K, self.perturbation, self.correlation,
             self.threads,
@@ -169,13 +180,6 @@ class Controller:
             max_speed=self.agent.max_speed, alpha=self.alpha, beta=self.beta, P=self.P,
             obstacle_margin=self.obstacle_margin, **predictor_params,
         )  # fmt: skip
-        # gamma lambda Sigma^-1 of the importance term, per control (lambda = 1 with "auto")
-        lam = 1.0 if self.lambda_ == AUTO else self.lambda_
-        self._importance_weight = (self.gamma * lam) / self.Sigma
-        self._lambda_max = self.alpha / COLLISION_NATS if self.alpha else np.inf
-        self.timer = NO_TIMER
-        self._grid = self.objective = self.rng = None
-        self.reset(seed)
 
     own_params = (
         "agent", "robot_radius", "dt", "K", "N", "lambda_", "ess_target", "Sigma", "gamma",

@@ -41,11 +41,7 @@ def omega_max(v: float = V, r_min: float = R_MIN) -> float:
 # the experiments' and the same for every planner: correlated perturbations (CORRELATION), the
 # temperature chosen each step at an ESS of 5 % of K, nav2's Savitzky-Golay filter of the plan
 # (9 steps, quadratic), and for the clustered planners hysteresis of 50 cost units (about 1 m less
-# progress at every state) in the choice of cluster. Tried and left out: a change cost of
-# 3 / Sigma stalled the robot (corridor episodes twice as long), 0.3 / Sigma smoothed little more;
-# without the least-cost sample's own cluster dc collided more in every crowd; with per-step
-# (mixed) perturbations the filter's lag let collisions rise, which a filter_guard of 50 bought
-# back at a jerk above 40 m/s^3; with correlated ones that guard only adds jerk.
+# progress at every state) in the choice of cluster.
 PRESETS = {
     "paper": {},
     "smooth": {

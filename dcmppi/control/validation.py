@@ -82,3 +82,19 @@ def choice(name, value, valid):
     if not isinstance(value, str) or value not in valid:
         raise ValueError(f"{name} must be one of {', '.join(valid)}; got {value!r}")
     return value
+
+
+def share(name, value):
+    """value as a float in (0, 1] (a share of K); a ValueError for anything else."""
+    checked = positive(name, value)
+    if checked > 1.0:
+        raise ValueError(f"{name} must be in (0, 1] (a share of K); got {value!r}")
+    return checked
+
+
+def seed_param(seed):
+    """seed unchanged if it is None, an int >= 0 or a np.random.Generator; else a ValueError."""
+    generator = isinstance(seed, np.random.Generator)
+    if not (seed is None or generator or isinstance(seed, numbers.Integral) and seed >= 0):
+        raise ValueError(f"seed must be None, an int >= 0 or a np.random.Generator; got {seed!r}")
+    return seed

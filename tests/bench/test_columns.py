@@ -19,7 +19,8 @@ from dcmppi.bench.reports.report import (
 )
 from dcmppi.bench.results.database import ADDED, SCHEMA_VERSION, TABLE_COLUMNS, ResultsDB
 
-# What each schema version added before the declarations (database.py's ADDED up to schema 7).
+# What each schema version added before the declarations (database.py's ADDED up to schema 7),
+# less guard_share (schema 7's filter guard, removed): databases that hold it keep it, unread.
 ADDED_BY_HAND = {
     3: {"nav_score"},
     4: {"success", "collision_kind", "timeout", "spl", "jerk_mean", "min_ped_gap",
@@ -28,7 +29,7 @@ ADDED_BY_HAND = {
     6: {"goal_distance", "control_rate_linear", "control_rate_angular", "turn_sign_changes",
         "indecision_per_m", "indecision_per_s", "commit_time", "commit_delay", "side_switches",
         "scene", "recording", "person", "human_time", "human_path_length", "frame_path_length"},
-    7: {"plan_commit_time", "plan_commit_delay", "plan_side_switches", "guard_share"},
+    7: {"plan_commit_time", "plan_commit_delay", "plan_side_switches"},
 }  # fmt: skip
 SAMPLE = {"TEXT": "x", "INTEGER": 1, "REAL": 0.5, "BLOB": b"\x00"}
 

@@ -10,7 +10,6 @@ import pytest
 from dcmppi.bench.episodes import runner
 from dcmppi.bench.episodes.metrics import (
     SIDE_DEADBAND,
-    Diagnosis,
     PlanSides,
     control_rates,
     indecision,
@@ -191,19 +190,6 @@ def test_plan_sides_count_switches_of_the_plan_before_the_robot_draws_level():
     assert tube.sides == [1]
 
 
-def test_the_guard_share_is_read_only_where_the_controller_has_a_guard():
-    diagnosis = Diagnosis()
-    for guarded in (True, False, False, True):
-        d = SimpleNamespace(guarded=guarded)
-        diagnosis.read(SimpleNamespace(diagnostics=d, filter_guard=0.0), np.zeros(3))
-    assert diagnosis.result()["guard_share"] == 0.5
-    unguarded = Diagnosis()
-    d = SimpleNamespace(guarded=False)
-    unguarded.read(SimpleNamespace(diagnostics=d, filter_guard=None), np.zeros(3))
-    unguarded.read(SimpleNamespace(diagnostics=SimpleNamespace()), np.zeros(3))
-    assert unguarded.result()["guard_share"] is None
-
-
 def test_a_blocked_episode_records_the_plans_side_without_changing_them(monkeypatch):
     spec = EpisodeSpec("blocked", "clustered", "control", 0, {}, SMALL)
     got = run_episode(spec)
@@ -211,7 +197,6 @@ def test_a_blocked_episode_records_the_plans_side_without_changing_them(monkeypa
     assert 0 <= got["plan_commit_delay"] <= got["plan_commit_time"]
     # the horizon (2 s at 1 m/s) first reaches the centre 10 m ahead after 8 s
     assert got["plan_commit_time"] >= 7.0
-    assert got["guard_share"] is None  # the paper's mode has no guard
     monkeypatch.setattr(runner.Episode, "_plan_sides", lambda self: None)
     assert run_episode(spec)["trace"] == got["trace"]  # reading the plans changes nothing
     classical = EpisodeSpec("blocked", "orca", "none", 0, {"agent": "unicycle"}, {})

@@ -68,16 +68,15 @@ def test_the_smoothness_table_shows_the_rates_and_blocked_commitment():
     assert s["settled"][0] == pytest.approx(100 / 3)
     assert s["never_switched"][0] == pytest.approx(100 / 3)
     assert "| Commit time [s] |" in smoothness_table(rows, exp)
-    assert "Plan:" not in smoothness_table(rows, exp) and "Guard" not in smoothness_table(rows, exp)
+    assert "Plan:" not in smoothness_table(rows, exp)
     planned = [(4.0, 0.0, 0), (5.0, 0.5, 1), (6.0, 2.0, 2)]  # prompt, settled, hesitant
     for r, (t, d, k) in zip(rows, planned, strict=True):
-        r.update(plan_commit_time=t, plan_commit_delay=d, plan_side_switches=k, guard_share=0.2)
+        r.update(plan_commit_time=t, plan_commit_delay=d, plan_side_switches=k)
     s = smoothness(rows)[("none", "mppi")]
     assert s["planned"] == 3 and s["plan_commit_time"][0] == pytest.approx(5.0)
     assert s["plan_committed"][0] == 0.0  # none within 1 s of the start
     assert s["plan_settled"][0] == pytest.approx(200 / 3)
     assert s["plan_never_switched"][0] == pytest.approx(100 / 3)
-    assert s["guard_share"][0] == pytest.approx(20.0)
     text = smoothness_table(rows, exp)
     head = [cell.strip() for cell in text.splitlines()[0].split("|")]
     assert head[-5:-1] == [
@@ -89,7 +88,7 @@ def test_the_smoothness_table_shows_the_rates_and_blocked_commitment():
     cells = [cell.strip() for cell in text.splitlines()[2].split("|")]
     assert cells[-3].startswith("66.7 [") and cells[-2].startswith("33.3 [")
     assert s["committed"][0] == pytest.approx(100 / 3)  # the path's, unchanged
-    classical = [{**r, "plan_side_switches": None, "guard_share": None} for r in rows]
+    classical = [{**r, "plan_side_switches": None} for r in rows]
     assert smoothness(classical)[("none", "mppi")]["plan_settled"] is None
     assert "Plan:" not in smoothness_table(classical, exp)
     old = [{**r, **dict.fromkeys(SINCE_5)} for r in rows]
@@ -170,7 +169,7 @@ def test_a_schema_6_database_reports_its_path_sides_and_upgrades(tmp_path):
     old = ResultsDB(path)
     rows = old.rows()
     old.close()
-    assert all(r["plan_side_switches"] is None and r["guard_share"] is None for r in rows)
+    assert all(r["plan_side_switches"] is None for r in rows)
     assert all(r["side_switches"] is not None for r in rows)
     db = ResultsDB(path, exp.config())  # opening to write adds the columns, keeps the rows
     spec = EpisodeSpec("blocked", "mppi", "none", 2, {}, SMALL)
@@ -189,7 +188,9 @@ def test_a_schema_6_database_reports_its_path_sides_and_upgrades(tmp_path):
 def test_a_schema_7_database_reports_without_the_time_columns_and_upgrades(tmp_path):
     assert SCHEMA_VERSION == 8 and ADDED[8] == ("time_waiting", "time_slow", "detour")
     exp, path, _ = _old_database(tmp_path, schema=7)
-    with sqlite3.connect(path) as c:
+    with sqlite3.connect(path) as c:  # schema 7's filter-guard share, no longer declared
+        c.execute("ALTER TABLE episodes ADD COLUMN guard_share REAL")
+        c.execute("UPDATE episodes SET guard_share = 0.25")
         before = c.execute("SELECT * FROM episodes ORDER BY env_index").fetchall()
     text = write_report(path, tmp_path / "out", plots=False)  # read-only: nothing converted
     diagnostics = next(b for b in text.split("\n\n") if b.startswith("| Noise | Row | ESS"))
@@ -216,6 +217,7 @@ def test_a_schema_7_database_reports_without_the_time_columns_and_upgrades(tmp_p
         kept = c.execute("SELECT * FROM episodes ORDER BY env_index").fetchall()
     assert [row[: len(before[0])] for row in kept[:2]] == before  # every old value kept
     assert kept[0][len(before[0]) :] == (None, None, None)  # the added columns, NULL
+    assert "guard_share" not in rows[0] and kept[2][len(before[0]) - 1] is None  # kept, unread
     text = write_report(path, tmp_path / "out", plots=False)
     diagnostics = next(b for b in text.split("\n\n") if b.startswith("| Noise | Row | ESS"))
     cells = diagnostics.splitlines()[2].split(" | ")

@@ -15,8 +15,8 @@ from dcmppi.control.planners.clustered import (
     features_of_sums,
     mean_std,
 )
-from dcmppi.control.planners.controller import Rollouts
 from dcmppi.control.planners.mppi import mppi_update
+from dcmppi.control.planners.rollouts import Rollouts
 
 
 def two_valley(eps):

@@ -302,7 +302,9 @@ def test_a_step_drawn_in_its_pass_equals_the_draw_made_first(agent, perturbation
             eps = np.asarray(draw) if made else draw
             assert np.array_equal(np.asarray(draw), draw.array(threads=3))
             r = ctrl.perturbed_rollouts(np.zeros(3), eps, sums=True)
-            runs.append((r.u, r.e, r.sums, r.products, r.states, r.J, r.importance, ctrl._draws))
+            runs.append(
+                (r.u, r.e, r.sums, r.products, r.states, r.J, r.importance, ctrl.sampler.draws)
+            )
         for a, b in zip(*runs, strict=True):
             assert np.array_equal(a, b)
 
@@ -403,6 +405,6 @@ def test_a_constant_draw_is_one_read_only_block_for_every_step():
     ctrl = make_controller("mppi", agent="holonomic", K=100, N=7, seed=1, perturbation="constant")
     eps = ctrl.sample()
     assert eps.shape == (7, 3, 100) and eps.strides[0] == 0 and not eps.flags.writeable
-    assert eps.tobytes() == np.broadcast_to(ctrl._raw, (7, 3, 100)).tobytes()
+    assert eps.tobytes() == np.broadcast_to(ctrl.sampler.raw, (7, 3, 100)).tobytes()
     with pytest.raises(ValueError, match="read-only"):
         eps[0, 0, 0] = 1.0

@@ -1,5 +1,5 @@
-"""The smoothness options and the `smooth` preset: the change cost, the Savitzky-Golay filter,
-candidates without single samples, hysteresis in the choice of cluster; off by default."""
+"""The smoothness options and the `smooth` preset: the Savitzky-Golay filter of the plan and
+hysteresis in the choice of cluster; off by default."""
 
 import numpy as np
 import pytest
@@ -9,10 +9,10 @@ import dcmppi
 from dcmppi.control.agents import make_agent
 from dcmppi.control.defaults import PRESETS
 from dcmppi.control.kernels.projection import bound_rows
-from dcmppi.control.planners.clustered import with_hysteresis, without_singletons
 from dcmppi.control.planners.controller import shifted
 from dcmppi.control.planners.smoothing import (
-    change_costs,
+    Hysteresis,
+    PlanFilter,
     continuing,
     filter_coefficients,
     savitzky_golay,
@@ -69,74 +69,23 @@ def test_filtered_plan_is_applied_and_warm_starts():
         np.testing.assert_array_equal(c.U, shifted(d.plan))
         np.testing.assert_allclose(d.action, d.plan[0], atol=1e-12)
         assert np.all(np.hypot(d.plan[:, 0], d.plan[:, 1]) <= 1.5 + 1e-9)  # still in bounds
+        assert c.plan_filter.applied[-1] is d.action  # the next step's window reaches it
 
 
-@pytest.mark.parametrize("name", ["mppi", "dc", "tube"])
-def test_guard_applies_the_plan_where_the_filtered_one_costs_more(name):
-    """With filter_guard, the filtered plan unless the plan as optimised is cheaper by more than
-    the margin; a filter that lags behind a turn away from the cylinder meets it."""
-    ctrl = dcmppi.make_controller(
-        name, agent="holonomic", seed=0, K=64, filter_window=9, filter_guard=0.0
-    )
-    state = np.array([4.45, 0.0, 0.0])  # 0.05 m from touching the cylinder ahead
-    list(head_on(ctrl, 2))
-    ctrl._applied.extend([np.array([1.5, 0.0, 0.0])] * 4)  # straight at the cylinder
-    swerve = np.tile([0.0, 1.5, 0.0], (ctrl.N, 1))  # away from it, at once
-    straight_on = np.tile([1.5, 0.0, 0.0], (ctrl.N, 1))
-    _, J = ctrl.rollout_costs(state, np.stack([swerve, straight_on], axis=2))
-    assert J[0] < J[1]
-    assert ctrl.smoothed(swerve, state) is swerve and ctrl.diagnostics.guarded
-    ctrl.filter_guard = float(J[1] - J[0]) + 1.0  # the filtered plan is within the margin
-    kept = ctrl.smoothed(swerve, state)
-    assert not ctrl.diagnostics.guarded and not np.array_equal(kept, swerve)
-    unguarded = dcmppi.make_controller(name, agent="holonomic", seed=0, K=64, filter_window=9)
-    list(head_on(unguarded, 2))
-    unguarded._applied.extend([np.array([1.5, 0.0, 0.0])] * 4)
-    np.testing.assert_array_equal(unguarded.smoothed(swerve, state), kept)
-
-
-def test_change_cost_charges_a_jagged_sequence():
-    N = 20
-    smooth = np.full((N, 1), 0.5)
-    jagged = 0.5 + 0.3 * np.tile([[1.0], [-1.0]], (N // 2, 1))
-    u = np.stack([smooth, jagged], axis=2)  # (N, 1, 2)
-    cost = change_costs(u, np.zeros(0), np.array([2.0]), 0, 2)
-    assert cost[0] == 0.0 and cost[1] == pytest.approx(2.0 * (N - 1) * 0.6**2)
-    cost = change_costs(u, np.array([0.0]), np.array([2.0]), 0, 2)  # and from the last control
-    assert cost[0] == pytest.approx(2.0 * 0.25)
-    # in a controller: J of the jagged sequence rises by its change cost, the smooth one's not
-    base = dcmppi.make_controller("mppi", seed=0, K=32, N=N)
-    charged = dcmppi.make_controller("mppi", seed=0, K=32, N=N, change_cost=2.0)
-    for ctrl in (base, charged):
-        ctrl.act(np.zeros(3), GOAL)
-    x0 = np.zeros(3)
-    _, J0 = base.rollout_costs(x0, u)
-    _, J1 = charged.rollout_costs(x0, u)
-    applied = charged.diagnostics.action[0]
-    expected = 2.0 * ((u[0, 0] - applied) ** 2 + np.sum(np.diff(u[:, 0], axis=0) ** 2, axis=0))
-    np.testing.assert_allclose(J1 - J0, expected, rtol=1e-9)
-    assert J1[1] - J0[1] > J1[0] - J0[0]
-
-
-def test_without_singletons_relabels_small_clusters():
-    labels = np.array([0, 0, 1, -1, 2, 2, 2, 3])
-    np.testing.assert_array_equal(without_singletons(labels), [0, 0, -1, -1, 1, 1, 1, -1])
-    kept = np.array([0, 0, 1, 1, -1])
-    assert without_singletons(kept) is kept
-
-
-@pytest.mark.parametrize("name", ["clustered", "dc"])
-def test_no_single_sample_candidates(name):
-    ctrl = dcmppi.make_controller(
-        name, agent="holonomic", seed=1, K=128, best_sample_cluster=False, dbscan_min_samples=1
-    )
-    for c in head_on(ctrl, 12):
-        d = c.diagnostics
-        clustered = d.labels[d.labels >= 0]
-        if len(clustered):
-            assert np.bincount(clustered).min() >= 2
-            assert len(d.cluster_controls) == clustered.max() + 1
-        assert np.count_nonzero(d.weights) >= 2
+def test_plan_filter_reaches_back_over_the_last_applied_controls():
+    agent = make_agent("holonomic")
+    plan_filter = PlanFilter(agent, 9, 2)
+    applied = [np.array([0.2 * i, 0.0, 0.0]) for i in range(6)]
+    for u in applied:
+        plan_filter.record(u)
+    plan = np.tile([1.2, 0.0, 0.0], (20, 1))
+    history = np.array(applied[-4:])  # the window's half before the plan: the last 4
+    expected = bound_rows(agent, savitzky_golay(plan, history, filter_coefficients(9, 2)))
+    np.testing.assert_array_equal(plan_filter(plan), expected)
+    assert expected[0, 0] < 1.2  # the slower controls before the plan pull its start down
+    plan_filter.reset()  # a new episode: the plan's first row stands for the history
+    np.testing.assert_allclose(plan_filter(plan), plan, atol=1e-12)
+    assert PlanFilter(agent, 0, 2)(plan) is plan  # no filter
 
 
 def test_hysteresis_keeps_the_continuing_cluster_within_the_margin():
@@ -145,8 +94,9 @@ def test_hysteresis_keeps_the_continuing_cluster_within_the_margin():
     Sigma = np.array([1.0, 1.0])
     assert continuing(U, U0, Sigma) == 1
     J = np.array([100.0, 120.0])
-    assert with_hysteresis(J, U, U0, Sigma, 30.0) == (1, 1)  # within the margin: kept
-    assert with_hysteresis(J, U, U0, Sigma, 10.0) == (0, 1)  # better by more: switch
+    assert Hysteresis(30.0, Sigma)(J, U, U0) == (1, 1)  # within the margin: kept
+    assert Hysteresis(10.0, Sigma)(J, U, U0) == (0, 1)  # better by more: switch
+    assert Hysteresis(0.0, Sigma)(J, U, U0) == (0, -1)  # none: the least J
     ctrl = dcmppi.make_controller("dc", agent="holonomic", seed=2, K=128, hysteresis=1e9)
     for c in head_on(ctrl, 8):
         d = c.diagnostics
@@ -158,27 +108,23 @@ def test_smooth_preset_sets_its_options_and_explicit_values_win():
     ctrl = dcmppi.make_controller("dc", agent="holonomic", preset="smooth")
     assert ctrl.preset == "smooth" and ctrl.lambda_ == smooth["lambda_"] == "auto"
     assert ctrl.ess_target == smooth["ess_target"]
-    assert not ctrl.change_cost.any()  # tried and left out of the preset
     assert (ctrl.filter_window, ctrl.filter_order) == (
         smooth["filter_window"],
         smooth["filter_order"],
     )
-    assert ctrl.best_sample_cluster  # the least-cost sample's cluster stays
     assert ctrl.hysteresis == smooth["hysteresis"] > 0
-    assert ctrl.filter_guard is None and "filter_guard" not in smooth  # no guard: only jerk
     assert ctrl.perturbation == smooth["perturbation"] == "correlated"
     assert ctrl.correlation == 0.9
     params = ctrl.params
-    assert params["preset"] == "smooth" and params["change_cost"] == ctrl.change_cost.tolist()
+    assert params["preset"] == "smooth" and params["filter_window"] == smooth["filter_window"]
     own = dcmppi.make_controller(
         "dc", agent="holonomic", preset="smooth", lambda_=1.0, filter_window=0, hysteresis=0.0
     )
     assert (own.lambda_, own.filter_window, own.hysteresis) == (1.0, 0, 0.0)
-    assert dcmppi.make_controller("dc", preset="smooth", change_cost=0.5).change_cost == [0.5]
     for name in ("mppi", "tube"):  # the planners without clusters take the rest
         ctrl = dcmppi.make_controller(name, agent="holonomic", preset="smooth", seed=0, K=64)
         assert ctrl.filter_window == 9 and ctrl.lambda_ == "auto"
-        assert ctrl.perturbation == "correlated" and not ctrl.has_guard
+        assert ctrl.perturbation == "correlated"
         list(head_on(ctrl, 3))
 
 
@@ -195,11 +141,7 @@ def test_unknown_preset_is_one_line_naming_the_valid_ones():
     [
         ({"filter_window": 4}, "filter_window must be 0"),
         ({"filter_window": 5, "filter_order": 5}, "filter_order must be below"),
-        ({"change_cost": -1.0}, "change_cost must be >= 0"),
-        ({"change_cost": [1.0, 2.0]}, "one per control"),
         ({"hysteresis": -1.0}, "hysteresis must be >= 0"),
-        ({"filter_guard": -1.0}, "filter_guard must be >= 0"),
-        ({"best_sample_cluster": "no"}, "best_sample_cluster must be true or false"),
     ],
 )
 def test_bad_smoothness_parameters_are_named(params, match):
@@ -211,6 +153,6 @@ def test_bad_smoothness_parameters_are_named(params, match):
 def test_defaults_are_the_papers(name):
     ctrl = dcmppi.make_controller(name, agent="holonomic", lambda_=None, ess_target=None)
     assert ctrl.preset == "paper" and ctrl.lambda_ == 1.0 and ctrl.ess_target == 0.1
-    assert not ctrl.change_cost.any() and ctrl.filter_window == 0 and ctrl.filter_guard is None
+    assert ctrl.filter_window == 0
     if name in ("clustered", "dc"):
-        assert ctrl.best_sample_cluster is True and ctrl.hysteresis == 0.0
+        assert ctrl.hysteresis == 0.0

@@ -46,8 +46,7 @@ class Column:
     the unit; digits; percent: a share shown x 100 in %; statistic: a row's figure over its
     finished episodes, "mean" or "median" (with bootstrap intervals where the table gives
     intervals) or "per_step" (the mean over all steps, of a per-step mean); over: the episodes
-    it is taken over, "all" or "goal" (the successful ones); optional: shown only where an
-    episode records it.
+    it is taken over, "all" or "goal" (the successful ones).
     """
 
     name: str
@@ -63,7 +62,6 @@ class Column:
     percent: bool = False
     statistic: str = "mean"
     over: str = "all"
-    optional: bool = False
 
     def __post_init__(self):
         checks = {
@@ -392,18 +390,6 @@ COLUMNS = (
         tables=("diagnostics",),
         title="Tube deviation p95",
         digits=3,
-    ),
-    Column(
-        "guard_share",
-        "REAL",
-        "the share of the steps at which the filter's guard applied the plan as optimised (or "
-        "the least-cost sample) instead of the filtered plan (controllers with a guard)",
-        since=7,
-        tables=("smoothness",),
-        title="Guard replaced the filtered plan",
-        digits=1,
-        percent=True,
-        optional=True,
     ),
     # where the time goes
     Column(

@@ -28,9 +28,7 @@ class Diagnosis:
     set; fallback: whether `chosen == -1` (Alg. 1 over all samples) where `labels` is set;
     deviation: Tube-MPPI's real-to-nominal position distance at the start of the step, before
     any reset (`nominal_deviation`; else |x[:2] - nominal_state[:2]| where `nominal_state` is
-    set); guarded: whether the filter's guard replaced the filtered plan by the plan as
-    optimised or the least-cost sample (`guarded`), where the controller has a guard
-    (`filter_guard` set).
+    set).
     """
 
     def __init__(self):
@@ -38,7 +36,6 @@ class Diagnosis:
         self.clusters: list[int] = []
         self.fallback: list[bool] = []
         self.deviation: list[float] = []
-        self.guarded: list[bool] = []
 
     def read(self, controller, state: np.ndarray) -> None:
         """Read the diagnostics of the step that `controller` just planned from `state` (3,)."""
@@ -56,14 +53,9 @@ class Diagnosis:
             self.deviation.append(float(deviation))
         elif nominal is not None:
             self.deviation.append(float(np.hypot(*(state[:2] - np.asarray(nominal)[:2]))))
-        guarded = getattr(d, "guarded", None)
-        guard = getattr(controller, "filter_guard", None)
-        if isinstance(guarded, bool | np.bool_) and guard is not None:
-            self.guarded.append(bool(guarded))
 
     def result(self) -> dict:
-        """ess_mean, clusters_mean, fallback_share, tube_deviation_p95, guard_share (the share
-        of the steps the guard replaced the filtered plan) (None: not recorded)."""
+        """ess_mean, clusters_mean, fallback_share, tube_deviation_p95 (None: not recorded)."""
 
         def mean(xs):
             return float(np.mean(xs)) if xs else None
@@ -75,7 +67,6 @@ class Diagnosis:
             "tube_deviation_p95": float(np.percentile(self.deviation, 95))
             if self.deviation
             else None,
-            "guard_share": mean(self.guarded),
         }
 
 

@@ -70,10 +70,9 @@ def _declared(*names: str) -> tuple:
     return tuple((c.heading, c.name, c.digits) for c in map(columns.BY_NAME.get, names))
 
 
-def _shown(table: str, optional: bool = False) -> tuple:
-    """The (heading, name, digits) of the columns the report's `table` shows: those shown only
-    where recorded (column.optional) or the others."""
-    return _declared(*(c.name for c in columns.shown(table) if c.optional == optional))
+def _shown(table: str) -> tuple:
+    """The (heading, name, digits) of the columns the report's `table` shows."""
+    return _declared(*(c.name for c in columns.shown(table)))
 
 
 METRICS_COLUMNS = RATE_COLUMNS + _shown("metrics")
@@ -240,7 +239,7 @@ def metrics_table(rows: list[dict], exp: Experiment) -> str:
 
 def smoothness_table(rows: list[dict], exp: Experiment) -> str:
     """Smoothness per (noise, row) with 95 % intervals (see `smoothness`): the table's declared
-    columns (the guard's share where episodes record it) and the task blocked's commitment
+    columns and the task blocked's commitment
     columns, the path's and the plans', where episodes record them; '' where no episode records
     a column of it that the metrics table does not show (an older database)."""
     stats = smoothness(rows)
@@ -248,9 +247,7 @@ def smoothness_table(rows: list[dict], exp: Experiment) -> str:
     own = {c.name for c in columns.shown("smoothness") if "metrics" not in c.tables}
     if not own & recorded:
         return ""
-    shown = SMOOTHNESS_COLUMNS + tuple(
-        c for c in _shown("smoothness", optional=True) if c[1] in recorded
-    )
+    shown = SMOOTHNESS_COLUMNS
     if any(s["blocked"] for s in stats.values()):
         shown += COMMIT_COLUMNS
     if any(s["planned"] for s in stats.values()):

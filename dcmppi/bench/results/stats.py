@@ -175,8 +175,7 @@ COMMIT_WITHIN = 1.0  # [s] the task blocked: commitment to a side this soon coun
 
 def smoothness(rows: list[dict]) -> dict[tuple[str, str], dict]:
     """Smoothness and indecision per (noise, row label) over its finished episodes: `episodes`;
-    per column of the report's smoothness table (columns.shown) its `interval` (guard_share's
-    in %; None: no guard).
+    per column of the report's smoothness table (columns.shown) its `interval`.
 
     Where episodes record a side of the obstacle (the task blocked: side_switches not NULL;
     `blocked` counts them, else 0): commit_time (mean, lo, hi, n) over the episodes that took a

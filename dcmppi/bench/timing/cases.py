@@ -143,13 +143,10 @@ VARIANTS = (
     Case("mppi unicycle mixed", "mppi", "forest", {"agent": "unicycle", **MIXED}),
     Case("mppi holonomic tv", "mppi", "forest", {"agent": "holonomic", **TV}),
 )
-# the smooth preset's paths (its rows, the preset with a filter guard, correlated draws in the
-# clustered features), after the others so that a machine's older fingerprints stay comparable
+# the smooth preset's paths (its rows, correlated draws in the clustered features), after the
+# others so that a machine's older fingerprints stay comparable
 CORRELATED = {"agent": "holonomic", "perturbation": "correlated"}
-PRESET_VARIANTS = SMOOTH_CASES + (
-    Case("mppi+smooth guard", "mppi", "corridor", {**WALK, **SMOOTH, "filter_guard": 50.0}),
-    Case("clustered correlated", "clustered", "forest", CORRELATED),
-)
+PRESET_VARIANTS = SMOOTH_CASES + (Case("clustered correlated", "clustered", "forest", CORRELATED),)
 FINGERPRINT_CASES = BASE_CASES + VARIANTS + PRESET_VARIANTS
 
 # `--profile`

@@ -25,8 +25,8 @@ for clusters below 20 % of the samples); min_samples dbscan_min_samples. Noise p
 -1) belong to no cluster, except the lowest-cost sample: when DBSCAN finds clusters but leaves it
 noise (a sample in the sparse tail of the sampling distribution), it and the noise points within
 the radius of it form one more cluster, so the best rollout is always a candidate (the best
-sample is never a noise point); best_sample_cluster=False drops that cluster and every cluster of
-fewer than 2 samples. With no cluster at all the step falls back to Alg. 1 over all samples.
+sample is never a noise point). With no cluster at all the step falls back to Alg. 1 over all
+samples.
 Each cluster's control sequence is rolled out without noise and the one with the least cost J
 is applied; with hysteresis > 0, the one that continues the warm start unless another's J is
 lower by more than that margin. Labels from dcmppi.control.kernels.dbscan (sklearn's labels,
@@ -45,8 +45,8 @@ from dcmppi.control.kernels.projection import horizon_sums
 from dcmppi.control.planners.diagnostics import ClusteredDiagnostics
 from dcmppi.control.planners.mppi import MPPI, effective_sample_size, mppi_update
 from dcmppi.control.planners.registry import register
-from dcmppi.control.planners.smoothing import continuing
-from dcmppi.control.validation import flag, positive
+from dcmppi.control.planners.smoothing import Hysteresis
+from dcmppi.control.validation import positive
 
 DBSCAN_SHARE = 0.16  # share of a standard normal inside the default DBSCAN radius
 DBSCAN_MIN_SAMPLES = 5  # neighbours (self included) of a core sample
@@ -113,30 +113,6 @@ def cluster_labels(features, dbscan_eps, min_samples=DBSCAN_MIN_SAMPLES, best=No
         near = (labels < 0) & (np.einsum("kd,kd->k", gap, gap) <= dbscan_eps * dbscan_eps)
         labels[near] = labels.max(initial=-1) + 1
     return labels
-
-
-def without_singletons(labels):
-    """labels (K,) with every cluster of fewer than 2 samples made noise (-1) and the others
-    numbered 0..M-1 in their order (a DBSCAN border sample goes to the first cluster that
-    reaches it, so a cluster may keep fewer than min_samples)."""
-    if labels.max(initial=-1) < 0:
-        return labels
-    sizes = np.bincount(labels[labels >= 0])
-    if sizes.min() >= 2:
-        return labels
-    kept = np.flatnonzero(sizes >= 2)
-    number = np.full(len(sizes), -1)
-    number[kept] = np.arange(len(kept))
-    return np.where(labels >= 0, number[np.maximum(labels, 0)], -1)
-
-
-def with_hysteresis(J, U, U0, Sigma, margin):
-    """(chosen, continuing) among the candidates U (M, N, nu) of noise-free costs J (M,): the
-    one that continues the warm start U0 (N, nu) (smoothing.continuing) unless another's J is
-    lower by more than `margin`, then the least J."""
-    kept = continuing(U, U0, Sigma)
-    best = int(np.argmin(J))
-    return (kept if J[kept] <= J[best] + margin else best), kept
 
 
 def cluster_updates(U0, eps, S, lambda_, labels, raw=None, bound=None):
@@ -221,20 +197,13 @@ class ClusteredMPPI(MPPI):
 
     Extra args (see the module docstring): dbscan_eps (None: the default radius for the
     agent's number of controls), dbscan_min_samples, collision_gap, cost_unit (None: alpha);
-    and the choice of candidates (docs/design.md, Smoothness; both set by `preset`):
-      best_sample_cluster: True (default, Alg. 2 here): a least-cost sample that DBSCAN leaves
-        as noise forms a cluster with the noise within the radius of it; False: no such cluster,
-        and a cluster of fewer than 2 samples is noise, so every candidate is a weighted mean of
-        2 or more samples ("smooth").
-      hysteresis: a cost margin >= 0 (0: none, the default; "smooth": 50): the candidate that
-        continues the warm start (the nearest to it, smoothing.continuing) is kept unless
-        another's noise-free cost J is lower by more than the margin.
+    and hysteresis in the choice of candidate (docs/design.md, Smoothness): a cost margin >= 0
+    (0: none, the default; `preset="smooth"`: 50): the candidate that continues the warm start
+    (the nearest to it, smoothing.continuing) is kept unless another's noise-free cost J is
+    lower by more than the margin (smoothing.Hysteresis).
     """
 
-    own_params = (
-        "dbscan_eps", "dbscan_min_samples", "collision_gap", "cost_unit", "best_sample_cluster",
-        "hysteresis",
-    )  # fmt: skip
+    own_params = ("dbscan_eps", "dbscan_min_samples", "collision_gap", "cost_unit", "hysteresis")
     diagnostics_class = ClusteredDiagnostics
 
     def __init__(
@@ -244,17 +213,14 @@ class ClusteredMPPI(MPPI):
         dbscan_min_samples=DBSCAN_MIN_SAMPLES,
         collision_gap=COLLISION_GAP,
         cost_unit=None,
-        best_sample_cluster=None,
         hysteresis=None,
         **params,
     ):
         super().__init__(**params)
-        self.best_sample_cluster = flag(
-            "best_sample_cluster", self.option("best_sample_cluster", best_sample_cluster, True)
-        )
         self.hysteresis = positive(
             "hysteresis", self.option("hysteresis", hysteresis, 0.0), allow_zero=True
         )
+        self.choice = Hysteresis(self.hysteresis, self.Sigma)
         self.dbscan_eps = (
             dbscan_radius(self.nu) if dbscan_eps is None else positive("dbscan_eps", dbscan_eps)
         )
@@ -263,7 +229,8 @@ class ClusteredMPPI(MPPI):
         if cost_unit is None and not self.alpha:
             raise ValueError("cost_unit is needed when alpha = 0 (it defaults to alpha)")
         self.cost_unit = self.alpha if cost_unit is None else positive("cost_unit", cost_unit)
-        self._feature_scale = mean_std(self.sigma, self.perturbation, self.N, self.correlation)
+        sigma = self.sampler.sigma
+        self._feature_scale = mean_std(sigma, self.perturbation, self.N, self.correlation)
         self._feature_inv = 1.0 / (self.N * self._feature_scale)
         self._cost_scale = self.collision_gap * self.dbscan_eps / self.cost_unit
 
@@ -280,12 +247,8 @@ class ClusteredMPPI(MPPI):
             )  # moving-obstacle term in units of the prediction's collision_cost (0: no term)
             features = features_of_sums(r.sums, cost, self._feature_inv, self._cost_scale)
         with timer("DBSCAN"):
-            if self.best_sample_cluster:
-                best = int(np.argmin(S))
-                labels = cluster_labels(features, self.dbscan_eps, self.dbscan_min_samples, best)
-            else:
-                labels = cluster_labels(features, self.dbscan_eps, self.dbscan_min_samples)
-                labels = without_singletons(labels)
+            best = int(np.argmin(S))
+            labels = cluster_labels(features, self.dbscan_eps, self.dbscan_min_samples, best)
         self.record(eps, r.states, r.J, S)
         d = self.diagnostics
         d.labels, d.features = labels, features
@@ -297,18 +260,15 @@ class ClusteredMPPI(MPPI):
             d.cluster_controls = np.zeros((0, self.N, self.nu))
             d.cluster_costs = np.zeros(0)
         else:
-            agent, raw = self.agent, self._raw
+            agent, raw = self.agent, self.sampler.raw
             scalar = raw is not None and agent.nu == 1 and agent.lower[0] == -agent.upper[0]
             with timer("cluster updates"):
                 U, w = cluster_updates(
                     self.U, eps, S, lam, labels, raw[0] if scalar else None, agent.upper[0]
                 )
             _, Jm = self.rollout_costs(state, U.transpose(1, 2, 0))
-            if self.hysteresis:
-                best, d.continued = with_hysteresis(Jm, U, self.U, self.Sigma, self.hysteresis)
-            else:
-                best, d.continued = int(np.argmin(Jm)), -1
+            best, d.continued = self.choice(Jm, U, self.U)
             plan, w = U[best], np.where(labels == best, w, 0.0)
             d.chosen, d.cluster_controls, d.cluster_costs = best, U, Jm
         d.weights, d.ess = w, effective_sample_size(w)
-        return self.finish(plan, state)
+        return self.finish(plan)

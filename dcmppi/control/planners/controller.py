@@ -12,10 +12,7 @@ plus its own. Each step, the predictor turns the moving obstacles into tracks, t
 scores rollouts, and the subclass's `_solve` plans with them.
 """
 
-import collections
-import dataclasses
 import functools
-import numbers
 
 import numpy as np
 
@@ -23,22 +20,27 @@ from dcmppi.control import defaults
 from dcmppi.control.agents import make_agent
 from dcmppi.control.defaults import PRESETS
 from dcmppi.control.kernels.costs import RESOLUTION, OccupancyGrid, valid_cylinders
-from dcmppi.control.kernels.perturbations import Draw, draw_normals
-from dcmppi.control.kernels.projection import NO_SUMS, bound, bound_rows, project_columns
+from dcmppi.control.kernels.perturbations import Draw
+from dcmppi.control.kernels.projection import NO_SUMS, bound, project_columns
 from dcmppi.control.kernels.sums import importance_of
 from dcmppi.control.kernels.threads import parts, run
 from dcmppi.control.objective import Objective
 from dcmppi.control.planners.diagnostics import Diagnostics
-from dcmppi.control.planners.smoothing import change_costs, filter_coefficients, savitzky_golay
-from dcmppi.control.planners.temperature import COLLISION_NATS, ESS_TARGET, choose_lambda
+from dcmppi.control.planners.observations import observed_rows, observed_velocity, state_and_goal
+from dcmppi.control.planners.rollouts import Rollouts, start_states
+from dcmppi.control.planners.sampling import Sampler, correlation_param, perturbation_param
+from dcmppi.control.planners.smoothing import PlanFilter
+from dcmppi.control.planners.temperature import (
+    AUTO,
+    COLLISION_NATS,
+    ESS_TARGET,
+    choose_lambda,
+    temperature_param,
+)
 from dcmppi.control.predictors import predictor_class
 from dcmppi.control.predictors.base import INPUTS
 from dcmppi.control.timer import NO_TIMER
-from dcmppi.control.validation import choice, floats, positive
-
-PERTURBATIONS = ("constant", "time_varying", "mixed", "correlated")
-AUTO = "auto"  # lambda_ chosen each step (dcmppi.control.planners.temperature)
-MAX_COORDINATE = 1e6  # |state| and |goal| bound: far beyond, squared distances overflow
+from dcmppi.control.validation import choice, positive, seed_param, share
 
 
 class Controller:
@@ -59,11 +61,9 @@ class Controller:
       alpha: static collision weight. beta: dynamic collision weight (sampled futures).
       P: futures per moving obstacle. seed: int, None or np.random.Generator.
       perturbation: "constant" (one eps per sample over the horizon, paper Sec. IV-A),
-        "time_varying" (independent per step), "mixed" (the sum of one constant and one
-        time-varying draw, each N(0, Sigma / 2)) or "correlated" (each sample's steps an AR(1)
-        sequence, eps_i = a eps_{i-1} + sqrt(1 - a^2) w_i with w_i ~ N(0, Sigma): between
-        time_varying at a = 0 and constant at a = 1); default: the agent's ("smooth":
-        "correlated").
+        "time_varying" (independent per step), "mixed" (one of each) or "correlated" (each
+        sample's steps an AR(1) sequence; dcmppi.control.planners.sampling); default: the
+        agent's ("smooth": "correlated").
       correlation: a in [0, 1), the step-to-step correlation of "correlated" perturbations
         (default 0.9: about 1 s at dt = 0.1 s); only with that kind.
       resolution: cost-map cell size [m].
@@ -77,23 +77,14 @@ class Controller:
         package.module:ClassName; default `default_prediction` ("frozen"; dc: "prior"). Its
         own parameters go alongside.
       preset: a name of dcmppi.control.defaults.PRESETS: "paper" (default: the paper's
-        algorithms) or "smooth" (plans a robot can follow); it sets the options below, lambda_
-        and ess_target where they are not given.
-      change_cost: weight of the cost on control changes (dcmppi.control.planners.smoothing),
-        one number for every control or one per control, in cost units per squared unit of the
-        control (e.g. (m/s)^-2); 0: none (the default, "smooth" too).
-      filter_window, filter_order: the Savitzky-Golay filter of the plan, its odd window (>= 3;
-        0: no filter, the default; "smooth": 9) and polynomial order (< window; default 2).
-      filter_guard: a cost margin >= 0, or None (the default): no guard. With a filter, the
-        plan as optimised, or the step's least-cost sample where the planner passes it (mppi and
-        tube: an average of samples may meet what the best one avoids; the clustered planners'
-        candidates hold that sample's own cluster), whichever is cheaper, replaces the filtered
-        plan at a step where its noise-free cost J is lower by more than the margin (a collision
-        that the filter's lag or the average would meet), and is applied and warm-starts in its
-        stead (the "smooth" preset sets none: with its correlated perturbations a guard only
-        adds jerk, docs/design.md).
-    Attributes: agent, predictor, objective (the last step's), diagnostics (the last step's),
-      timer (the profile's hook, dcmppi.control.timer).
+        algorithms) or "smooth" (plans a robot can follow); it sets perturbation, lambda_,
+        ess_target, the filter below and clustered's hysteresis where they are not given.
+      filter_window, filter_order: the Savitzky-Golay filter of the plan
+        (dcmppi.control.planners.smoothing), its odd window (>= 3; 0: no filter, the default;
+        "smooth": 9) and polynomial order (< window; default 2).
+    Attributes: agent, predictor, sampler (sampling.Sampler), plan_filter
+      (smoothing.PlanFilter), objective (the last step's), diagnostics (the last step's), timer
+      (the profile's hook, dcmppi.control.timer).
 
     A subclass implements `_solve(state)` -> (nu,) controls, and may override the seams of a
     step's per-sample work (perturbed_rollouts). sample() runs once per step on the calling
@@ -133,15 +124,11 @@ class Controller:
         threads=1,
         prediction=None,
         preset=None,
-        change_cost=None,
         filter_window=None,
         filter_order=None,
-        filter_guard=None,
         **other,
     ):
         self.preset = choice("preset", "paper" if preset is None else preset, tuple(PRESETS))
-        lambda_ = self.option("lambda_", lambda_, defaults.LAMBDA)
-        ess_target = self.option("ess_target", ess_target, ESS_TARGET)
         self.prediction = prediction or self.default_prediction
         predictor = predictor_for(self.prediction)
         predictor_params = {n: other.pop(n) for n in predictor.own_params if n in other}
@@ -150,8 +137,8 @@ class Controller:
         self.dt = positive("dt", dt)
         self.K = positive("K", K, integer=True)
         self.N = positive("N", N, integer=True)
-        self.lambda_ = temperature_param(lambda_)
-        self.ess_target = share("ess_target", ess_target)
+        self.lambda_ = temperature_param(self.option("lambda_", lambda_, defaults.LAMBDA))
+        self.ess_target = share("ess_target", self.option("ess_target", ess_target, ESS_TARGET))
         self.Sigma = self.agent.variances(Sigma)
         self.gamma = positive("gamma", gamma, allow_zero=True)
         self.alpha = positive("alpha", alpha, allow_zero=True)
@@ -165,27 +152,7 @@ class Controller:
         self.obstacle_margin = positive("obstacle_margin", obstacle_margin, allow_zero=True)
         self.threads = positive("threads", threads, integer=True)
         self.seed = seed_param(seed)
-        self.change_cost = change_cost_param(change_cost, len(self.Sigma))
-        self._change_weight = self.change_cost if self.change_cost.any() else None
-        self.filter_window, self.filter_order = filter_params(
-            self.option("filter_window", filter_window, 0),
-            self.option("filter_order", filter_order, 2),
-        )
-        self._filter = (
-            filter_coefficients(self.filter_window, self.filter_order)
-            if self.filter_window
-            else None
-        )
-        guard = self.option("filter_guard", filter_guard, None)
-        if guard is not None:
-            guard = positive("filter_guard", guard, allow_zero=True)
-        self.filter_guard = guard
-        self.predictor = predictor(
-            N=self.N, dt=self.dt, robot_radius=self.robot_radius,
-            max_speed=self.agent.max_speed, alpha=self.alpha, beta=self.beta, P=self.P,
-            obstacle_margin=self.obstacle_margin, **predictor_params,
-        )  # fmt: skip
-        self.sigma = np.sqrt(self.Sigma)
+        self._components(predictor, predictor_params, filter_window, filter_order)
         # gamma lambda Sigma^-1 of the importance term, per control (lambda = 1 with "auto")
         lam = 1.0 if self.lambda_ == AUTO else self.lambda_
         self._importance_weight = (self.gamma * lam) / self.Sigma
@@ -194,11 +161,30 @@ class Controller:
         self._grid = self.objective = self.rng = None
         self.reset(seed)
 
+    def _components(self, predictor, predictor_params, filter_window, filter_order):
+        """The step's components from the checked parameters: the sampler, the plan's filter
+        (of the given or the preset's window and order) and the predictor (of the class
+        `predictor`, with its own parameters)."""
+        self.sampler = Sampler(
+            self.agent, self.Sigma, self.N, self.K, self.perturbation, self.correlation,
+            self.threads,
+        )  # fmt: skip
+        self.plan_filter = PlanFilter(
+            self.agent,
+            self.option("filter_window", filter_window, 0),
+            self.option("filter_order", filter_order, 2),
+        )
+        self.filter_window, self.filter_order = self.plan_filter.window, self.plan_filter.order
+        self.predictor = predictor(
+            N=self.N, dt=self.dt, robot_radius=self.robot_radius,
+            max_speed=self.agent.max_speed, alpha=self.alpha, beta=self.beta, P=self.P,
+            obstacle_margin=self.obstacle_margin, **predictor_params,
+        )  # fmt: skip
+
     own_params = (
         "agent", "robot_radius", "dt", "K", "N", "lambda_", "ess_target", "Sigma", "gamma",
         "alpha", "beta", "P", "seed", "perturbation", "correlation", "resolution",
-        "obstacle_margin", "threads", "prediction", "preset", "change_cost", "filter_window",
-        "filter_order", "filter_guard",
+        "obstacle_margin", "threads", "prediction", "preset", "filter_window", "filter_order",
     )  # fmt: skip
 
     def option(self, name, value, default):
@@ -221,7 +207,6 @@ class Controller:
         predictor's."""
         out = {n: getattr(self, n) for n in self.param_names() if n not in ("seed", "agent")}
         out["Sigma"] = self.Sigma.tolist()
-        out["change_cost"] = self.change_cost.tolist()
         return {
             "agent": self.agent.name,
             **self.agent.params,
@@ -243,13 +228,11 @@ class Controller:
         if self.rng is None or seed is not None:
             s = self.seed
             self.rng = s if isinstance(s, np.random.Generator) else np.random.default_rng(s)
-            self._keys = self.rng.spawn(1)[0]  # its own stream: rng's draws stay the predictor's
-        self._key = int(self._keys.integers(2**63))  # this episode's perturbation stream
-        self._draws = 0
+            self.sampler.seed(self.rng)
+        self.sampler.reset()  # this episode's perturbation stream
         self.U = None  # set from the agent's first guess at the first step
         self._last_lambda = None  # "auto": where the next step's search starts
-        # the controls applied at the last steps, newest last (the change cost's and filter's)
-        self._applied = collections.deque(maxlen=max(1, (self.filter_window or 0) // 2))
+        self.plan_filter.reset()
         self.predictor.reset()
         self.diagnostics = self.diagnostics_class()
 
@@ -300,7 +283,7 @@ class Controller:
         self.diagnostics.prediction = prediction
         u = self._solve(state)
         self.diagnostics.action = u
-        self._applied.append(u)
+        self.plan_filter.record(u)
         return u
 
     def _solve(self, state):
@@ -322,37 +305,8 @@ class Controller:
     def sample(self):
         """This step's perturbations eps (N, nu, K) from N(0, Sigma), time-major: an array, or
         a Draw of them (dcmppi.control.kernels.perturbations; np.asarray makes it) that
-        controls() makes in the pass that bounds them, row by row while the row is in the cache.
-
-        constant: one draw per sample and control (kept in self._raw (nu, K)), the same at
-        every step; time_varying: independent draws per step; mixed: the sum of one of each,
-        both N(0, Sigma / 2); correlated: an AR(1) sequence of the per-step draws (correlation),
-        so that every kind has the per-step variance Sigma that the importance term assumes. The
-        per-step kinds are a Draw for an agent bounded by a box (or a box and a disc of two
-        controls), else an array.
-        """
-        if self.perturbation == "constant":
-            raw = self._normals((1, self.nu, self.K), self.sigma)
-            self._raw = raw[0]
-            return constant_steps(raw, self.N)
-        self._raw = None  # no constant draw of the whole horizon this step
-        scale, add = self.sigma, None
-        if self.perturbation == "mixed":
-            half = np.sqrt(0.5)  # each draw N(0, Sigma / 2): the sum has variance Sigma each step
-            raw = self._normals((1, self.nu, self.K), self.sigma)[0]
-            scale, add = half * self.sigma, half * raw
-        self._draws += 1
-        shape = (self.N, self.nu, self.K)
-        draw = Draw(self._key, self._draws, shape, scale, add, self.correlation)
-        axes = self.agent.norm_axes
-        return draw if axes is None or len(axes) == 2 else draw.array(self.threads)
-
-    def _normals(self, shape, scale):
-        """The next draw of this episode's perturbation stream
-        (dcmppi.control.kernels.perturbations): z * scale[:, None] for standard normals z (1, nu,
-        K), on this thread."""
-        self._draws += 1
-        return draw_normals(self._key, self._draws, shape, scale)
+        controls() makes in the pass that bounds them (sampling.Sampler.sample)."""
+        return self.sampler.sample()
 
     def controls(self, r, cols):
         """The samples cols = (j0, j1) of the Rollouts r: the bounded controls project(r.U0 +
@@ -380,10 +334,6 @@ class Controller:
                 r.J[c0:c1], term = self.objective(r.states, True, whole)
                 if r.moving is not None:
                     r.moving[c0:c1] = 0.0 if term is None else term
-            if self._change_weight is not None:  # the change cost, the same from every start
-                change = self.change_costs(r.u, cols)
-                for start in range(0, len(r.J), k):  # the columns of each start state
-                    r.J[start + cols[0] : start + cols[1]] += change
 
     def importance(self, r, cols):
         """The samples cols = (j0, j1) of the Rollouts r: the importance term gamma lambda sum_i
@@ -445,118 +395,25 @@ class Controller:
         self._last_lambda = lam
         return lam
 
-    def change_costs(self, u, cols=None):
-        """The change cost (j1 - j0,) of the control sequences u[:, :, j0:j1] (u (N, nu, R);
-        cols = (j0, j1), None: all): their steps' changes and their first step's change from the
-        control applied at the last step (dcmppi.control.planners.smoothing)."""
-        j0, j1 = (0, np.shape(u)[2]) if cols is None else cols
-        previous = self._applied[-1] if self._applied else np.zeros(0)
-        weight = np.zeros(self.nu) if self._change_weight is None else self._change_weight
-        return change_costs(u, np.asarray(previous, dtype=float), weight, j0, j1)
-
-    @property
-    def has_guard(self):
-        """Whether the plan's filter has a guard (filter_guard), which weighs the step's
-        least-cost sample too."""
-        return self._filter is not None and self.filter_guard is not None
-
-    def smoothed(self, plan, x0, sample=None):
-        """The plan (N, nu) through the Savitzky-Golay filter, the controls applied at the last
-        steps before it, projected into the agent's bounds; the plan itself without a filter.
-
-        With filter_guard: the cheaper of the plan as optimised and `sample` (N, nu) (the step's
-        least-cost sample, or None) where its noise-free cost from x0 (3,) is lower than the
-        filtered plan's by more than that margin (diagnostics.guarded says so).
-        """
-        if self._filter is None:
+    def smoothed(self, plan):
+        """The plan (N, nu) through the plan's filter (smoothing.PlanFilter), or itself without
+        one."""
+        if not self.filter_window:
             return plan
-        history = np.array(self._applied).reshape(-1, self.nu)
         with self.timer("filter"):
-            filtered = bound_rows(self.agent, savitzky_golay(plan, history, self._filter))
-        if self.filter_guard is None:
-            return filtered
-        with self.timer("guard"):
-            candidates = [filtered, plan] + ([] if sample is None else [sample])
-            _, J = self.rollout_costs(x0, np.stack(candidates, axis=2))
-        best = 1 + int(np.argmin(J[1:]))
-        self.diagnostics.guarded = bool(J[best] < J[0] - self.filter_guard)
-        return candidates[best] if self.diagnostics.guarded else filtered
+            return self.plan_filter(plan)
 
-    def finish(self, plan, x0, sample=None):
+    def finish(self, plan):
         """Apply the plan's first controls and warm-start the next step by shifting it.
 
-        plan: (N, nu) planned from the state x0 (3,), filtered first when the planner has a
-        filter (smoothed, which may apply `sample` (N, nu) instead). Returns plan[0] (nu,) in the
-        agent's bounds (a weighted mean of bounded controls may leave them by a rounding error).
+        plan: (N, nu), filtered first when the planner has a filter (smoothed). Returns plan[0]
+        (nu,) in the agent's bounds (a weighted mean of bounded controls may leave them by a
+        rounding error).
         """
-        plan = self.smoothed(plan, x0, sample)
+        plan = self.smoothed(plan)
         self.U = shifted(plan)
         self.diagnostics.plan = plan
         return bound(self.agent, plan[0])
-
-
-@dataclasses.dataclass(frozen=True, slots=True)
-class Rollouts:
-    """A step's K perturbed samples rolled out from S start states, and their costs
-    (Controller.perturbed_rollouts); the seams controls(), evaluate() and importance() fill the
-    arrays in place, a range of samples at a time.
-
-      U0: (N, nu) the warm start that the samples perturb.
-      eps: (N, nu, K) the perturbations, or a Draw of them (Controller.sample).
-      u: (N, nu, K) the bounded controls project(U0 + eps).
-      e: (N, nu, K) the perturbations that remain, u - U0 (the update's and the importance
-        term's).
-      products: (nu, K) sum_i U0[i, c] e[i, c], the importance term's sums over the steps.
-      sums: (nu, K) the horizon sums of e (the clustering features), or None: not asked.
-      states: (3, N + 1, S K) the rollouts; columns s K .. s K + K - 1 start from start s.
-      J: (S K,) their costs under the step's objective.
-      moving: (S K,) J's moving-obstacle term, or None: the step has no moving obstacles.
-      importance: (K,) the importance term gamma lambda sum_i u_i^T Sigma^-1 e_i.
-    """
-
-    U0: np.ndarray | None = None
-    eps: np.ndarray | Draw | None = None
-    u: np.ndarray | None = None
-    e: np.ndarray | None = None
-    products: np.ndarray | None = None
-    sums: np.ndarray | None = None
-    states: np.ndarray | None = None
-    J: np.ndarray | None = None
-    moving: np.ndarray | None = None
-    importance: np.ndarray | None = None
-
-    @classmethod
-    def allocate(cls, U0, eps, x0, starts=1, sums=False, moving=False):
-        """Empty Rollouts of the perturbations eps (N, nu, K) (an array or a Draw) of U0
-        (N, nu) from x0 ((3,), or (3, S) with starts = S > 1), with the arrays that the seams
-        fill; sums, moving: whether to keep those too."""
-        n, nu, k = eps.shape
-        return cls(
-            U0, eps, np.empty((n, nu, k)), np.empty((n, nu, k)), np.zeros((nu, k)),
-            np.zeros((nu, k)) if sums else None, start_states(x0, n, starts, k),
-            np.empty(starts * k), np.empty(starts * k) if moving else None, np.empty(k),
-        )  # fmt: skip
-
-    @property
-    def K(self):  # noqa: N802 (the paper's name)
-        """The number of samples."""
-        return self.u.shape[2]
-
-    def spans(self, cols):
-        """The columns (c0, c1) of states, J and moving that hold the samples cols = (j0, j1):
-        one range per start state (one for all when cols are all the samples)."""
-        k, total = self.K, len(self.J)
-        if cols == (0, k):
-            return ((0, total),)
-        return tuple((c + cols[0], c + cols[1]) for c in range(0, total, k))
-
-
-def start_states(x0, n, starts, k):
-    """Rollout states (3, n + 1, starts k), empty but for the start states: x0 (3,), (3, k) or
-    (3, starts) (columns s k .. s k + k - 1 start from x0[:, s])."""
-    states = np.empty((3, n + 1, starts * k))
-    states.reshape(3, n + 1, starts, k)[:, 0] = np.reshape(x0, (3, starts, -1))
-    return states
 
 
 def shifted(plan):
@@ -565,14 +422,6 @@ def shifted(plan):
     out[:-1] = plan[1:]
     out[-1] = plan[-1]
     return out
-
-
-def constant_steps(raw, n):
-    """np.broadcast_to(raw, (n, nu, K)) of raw (1, nu, K), C-contiguous: the same read-only
-    view (a zero stride along the steps), made without numpy's general broadcasting."""
-    view = np.ndarray((n, *raw.shape[1:]), raw.dtype, raw, 0, (0, *raw.strides[1:]))
-    view.flags.writeable = False
-    return view
 
 
 def predictor_for(prediction):
@@ -586,136 +435,3 @@ def predictor_for(prediction):
             f"valid inputs: {', '.join(INPUTS)}"
         )
     return predictor
-
-
-def state_and_goal(state, goal):
-    """state (3,) and goal (2,) as float arrays; a ValueError where either has another shape or
-    a coordinate is not finite or beyond MAX_COORDINATE."""
-    state, goal = floats("state", state), floats("goal", goal)
-    if state.shape != (3,) or goal.shape != (2,):
-        raise ValueError(f"state must be (3,) and goal (2,); got {state.shape}, {goal.shape}")
-    if not all(abs(v) < MAX_COORDINATE for v in (*state.tolist(), *goal.tolist())):  # nan too
-        raise ValueError(
-            f"state and goal must be finite and within {MAX_COORDINATE:.0e} (m, rad); "
-            f"got {state}, {goal}"
-        )
-    return state, goal
-
-
-def change_cost_param(value, nu):
-    """change_cost as weights (nu,) >= 0: a number for every control or one per control; None:
-    zeros (no change cost). A ValueError for anything else."""
-    if value is None:
-        return np.zeros(nu)
-    values = np.atleast_1d(np.asarray(floats("change_cost", value)))
-    if values.ndim != 1 or len(values) not in (1, nu):
-        raise ValueError(f"change_cost must be a number or one per control ({nu}); got {value!r}")
-    for v in values.tolist():
-        positive("change_cost", v, allow_zero=True)
-    return np.broadcast_to(values, (nu,)).astype(float)
-
-
-def filter_params(window, order):
-    """(filter_window, filter_order) as ints: a window 0 (no filter) or odd >= 3, an order
-    0 <= order < window; a ValueError for anything else."""
-    window = positive("filter_window", window, integer=True, allow_zero=True)
-    order = positive("filter_order", order, integer=True, allow_zero=True)
-    if window and (window < 3 or window % 2 == 0):
-        raise ValueError(f"filter_window must be 0 (no filter) or odd and >= 3; got {window}")
-    if window and order >= window:
-        raise ValueError(f"filter_order must be below filter_window ({window}); got {order}")
-    return window, order
-
-
-def share(name, value):
-    """value as a float in (0, 1] (a share of K); a ValueError for anything else."""
-    checked = positive(name, value)
-    if checked > 1.0:
-        raise ValueError(f"{name} must be in (0, 1] (a share of K); got {value!r}")
-    return checked
-
-
-def perturbation_param(value, agent):
-    """One of PERTURBATIONS, the agent's default for None; a ValueError for anything else."""
-    value = agent.default_perturbation if value is None else value
-    if value not in PERTURBATIONS:
-        raise ValueError(f"perturbation must be one of {PERTURBATIONS}; got {value!r}")
-    return value
-
-
-def correlation_param(value, perturbation):
-    """The correlation of "correlated" perturbations: value in [0, 1), CORRELATION for None; 0
-    for the other kinds, which take none (a ValueError if one is given)."""
-    if perturbation != "correlated":
-        if value is not None:
-            raise ValueError(
-                f"correlation applies to perturbation='correlated' only; got perturbation="
-                f"{perturbation!r}: drop correlation or set perturbation='correlated'"
-            )
-        return 0.0
-    value = defaults.CORRELATION if value is None else value
-    checked = positive("correlation", value, allow_zero=True)
-    if checked >= 1.0:
-        raise ValueError(
-            f"correlation must be in [0, 1) (1 is perturbation='constant'); got {value!r}"
-        )
-    return checked
-
-
-def seed_param(seed):
-    """seed unchanged if it is None, an int >= 0 or a np.random.Generator; else a ValueError."""
-    generator = isinstance(seed, np.random.Generator)
-    if not (seed is None or generator or isinstance(seed, numbers.Integral) and seed >= 0):
-        raise ValueError(f"seed must be None, an int >= 0 or a np.random.Generator; got {seed!r}")
-    return seed
-
-
-def temperature_param(value):
-    """lambda_ as a float, or "auto"; a ValueError for anything else."""
-    if isinstance(value, str) and value == AUTO:
-        return AUTO
-    try:
-        return positive("lambda_", value)
-    except ValueError:
-        raise ValueError(f"lambda_ must be a number > 0 or 'auto'; got {value!r}") from None
-
-
-def observed_rows(values, moving, name):
-    """The rows of `values` (L, ...) that belong to rows of `moving` (L, 4) that are not padding
-    (radius > 0), or None; checked only for their number of rows (the predictor checks the rest)."""
-    if values is None:
-        return None
-    values = np.asarray(values, dtype=float)
-    radius = np.zeros(0) if moving is None else np.asarray(moving, dtype=float)[:, 3]
-    if values.ndim < 1 or len(values) != len(radius):
-        raise ValueError(
-            f"{name} must have one row per row of moving ({len(radius)}); got shape {values.shape}"
-        )
-    return values[radius > 0]
-
-
-def observed_velocity(velocity, moving):
-    """The (L', 2) velocities of the rows of `moving` that are not padding (radius > 0), or None.
-
-    Args:
-      velocity: (L, 2) world-frame velocities (nan: not observed), or None.
-      moving: (L, 4) moving obstacles, already validated (costs.valid_cylinders), or None.
-    """
-    if velocity is None:
-        return None
-    velocity = np.asarray(velocity, dtype=float)
-    rows = 0 if moving is None else len(moving)
-    if velocity.shape != (rows, 2):
-        raise ValueError(
-            f"moving_velocity must have shape ({rows}, 2), one row per row of moving; "
-            f"got {velocity.shape}"
-        )
-    if not rows:  # no moving obstacles: nothing to check or select
-        return velocity
-    infinite = np.isinf(velocity).any(axis=1)
-    if infinite.any():
-        raise ValueError(
-            f"moving_velocity must be finite, or nan where not observed; infinite rows "
-            f"{np.flatnonzero(infinite)}"
-        )
-    return observed_rows(velocity, moving, "moving_velocity")

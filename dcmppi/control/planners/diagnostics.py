@@ -20,7 +20,6 @@ class Diagnostics:
     lambda_: the temperature of the weights (lambda_, or the step's choice with "auto").
     warm_start: (N, nu) the reference controls U0 the step started from (eps is relative to it).
     plan: (N, nu) the optimised control sequence; action: (nu,) the applied controls.
-    guarded: with a filter_guard, whether the plan as optimised replaced the filtered one.
     prediction: the step's dcmppi.control.Prediction of the moving obstacles (tracks, and the
       sampled futures and filter posterior where the predictor makes them).
     """
@@ -35,7 +34,6 @@ class Diagnostics:
     warm_start: np.ndarray = None
     plan: np.ndarray = None
     action: np.ndarray = None
-    guarded: bool = False
     prediction: object = None
 
 

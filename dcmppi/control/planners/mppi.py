@@ -82,5 +82,4 @@ class MPPI(Controller):
         self.record(r.e, r.states, r.J, S)
         d = self.diagnostics
         d.weights, d.ess, d.lambda_ = w, effective_sample_size(w), lam
-        sample = r.u[:, :, np.argmin(r.J)] if self.has_guard else None  # the guard's fallback
-        return self.finish(plan, state, sample)
+        return self.finish(plan)

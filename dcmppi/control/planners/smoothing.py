@@ -1,49 +1,66 @@
-"""Smoothness options that every planner shares (Controller): a cost on control changes and a
-Savitzky-Golay filter of the plan; and the clustered planners' choice of cluster with
-hysteresis. All are off by default (the paper's algorithms); `preset="smooth"` turns them on
-(dcmppi.control.defaults.PRESETS, docs/design.md).
+"""The plan's post-processing, off by default (the paper's algorithms) and on with
+`preset="smooth"` (dcmppi.control.defaults.PRESETS, docs/design.md): every planner's filter of
+the plan (PlanFilter) and the clustered planners' choice of cluster with hysteresis (Hysteresis).
 
-- change cost: sum_c W_c [(u_0c - a_c)^2 + sum_{i=0}^{N-2} (u_{i+1,c} - u_ic)^2] of a control
-  sequence u (N, nu), a the control applied at the previous step (no term at an episode's first
-  step), W_c the weight of control c in cost units per squared unit of that control (e.g.
-  (m/s)^-2). It joins each rollout's cost J (Controller.evaluate), so it shapes the weights of
-  every planner and the noise-free costs of the clustered planners' candidates.
 - filter: the plan's rows smoothed by the Savitzky-Golay filter of a window and polynomial order
   (nav2's MPPI: 9 and 2), the window's first half reaching back over the controls applied at
   the last steps (the plan's first row at an episode's start), its last half past the plan's
   end over the last row repeated; then projected into the agent's bounds. The filtered plan is
   both applied (its first row) and the next step's warm start (shifted).
+- hysteresis: the candidate that continues the warm start (continuing) is kept unless another's
+  noise-free cost J is lower by more than a margin.
 """
 
+import collections
 from fractions import Fraction
 
 import numba
 import numpy as np
 
+from dcmppi.control.kernels.projection import bound_rows
+from dcmppi.control.validation import positive
 
-@numba.njit(cache=True)
-def change_costs(u, previous, weight, j0, j1):
-    """The change cost (j1 - j0,) of the sequences u[:, :, j0:j1] (u (N, nu, K)).
 
-    previous: (nu,) the control applied at the last step, or (0,): none. weight: (nu,) W_c.
-    Sums in a fixed order: over steps, then controls, for each sample.
+class PlanFilter:
+    """The Savitzky-Golay filter of a plan (N, nu), the controls applied at the last steps
+    before it, projected into the agent's bounds.
+
+    Args: agent; window: 0 (no filter: the plan passes unchanged) or odd >= 3; order: of the
+    polynomial, 0 <= order < window. A ValueError names a bad window or order.
     """
-    n, nu, _ = u.shape
-    out = np.zeros(j1 - j0)
-    for c in range(nu):
-        w = weight[c]
-        if w == 0.0:
-            continue
-        if len(previous):
-            a = previous[c]
-            for k in range(j0, j1):
-                d = u[0, c, k] - a
-                out[k - j0] += w * d * d
-        for i in range(n - 1):
-            for k in range(j0, j1):
-                d = u[i + 1, c, k] - u[i, c, k]
-                out[k - j0] += w * d * d
-    return out
+
+    def __init__(self, agent, window, order):
+        self.agent = agent
+        self.window, self.order = filter_params(window, order)
+        self.coefficients = filter_coefficients(self.window, self.order) if self.window else None
+        self.reset()
+
+    def reset(self):
+        """Forget the applied controls (a new episode)."""
+        self.applied = collections.deque(maxlen=max(1, self.window // 2))
+
+    def record(self, u):
+        """Keep the control u (nu,) applied at this step (the next steps' windows reach it)."""
+        self.applied.append(u)
+
+    def __call__(self, plan):
+        """The plan (N, nu) filtered and bounded (N, nu); the plan itself without a filter."""
+        if not self.window:
+            return plan
+        history = np.array(self.applied).reshape(-1, self.agent.nu)
+        return bound_rows(self.agent, savitzky_golay(plan, history, self.coefficients))
+
+
+def filter_params(window, order):
+    """(window, order) as ints: a window 0 (no filter) or odd >= 3, an order 0 <= order <
+    window; a ValueError naming filter_window or filter_order for anything else."""
+    window = positive("filter_window", window, integer=True, allow_zero=True)
+    order = positive("filter_order", order, integer=True, allow_zero=True)
+    if window and (window < 3 or window % 2 == 0):
+        raise ValueError(f"filter_window must be 0 (no filter) or odd and >= 3; got {window}")
+    if window and order >= window:
+        raise ValueError(f"filter_order must be below filter_window ({window}); got {order}")
+    return window, order
 
 
 def filter_coefficients(window, order):
@@ -112,3 +129,21 @@ def continuing(U, U0, Sigma):
     perturbations, so this is the cluster whose perturbations average nearest to none)."""
     gap = (np.asarray(U) - np.asarray(U0)[None]) ** 2 / np.asarray(Sigma)
     return int(np.argmin(gap.sum(axis=(1, 2))))
+
+
+class Hysteresis:
+    """The clustered planners' choice among candidate sequences: the one that continues the warm
+    start (continuing) unless another's noise-free cost J is lower by more than `margin`, then
+    the least J; margin 0: the least J. Sigma: (nu,) the sampling variances."""
+
+    def __init__(self, margin, Sigma):
+        self.margin, self.Sigma = margin, Sigma
+
+    def __call__(self, J, U, U0):
+        """(chosen, continuing) among the candidates U (M, N, nu) of costs J (M,), for the warm
+        start U0 (N, nu); continuing is -1 with margin 0."""
+        best = int(np.argmin(J))
+        if not self.margin:
+            return best, -1
+        kept = continuing(U, U0, self.Sigma)
+        return (kept if J[kept] <= J[best] + self.margin else best), kept

@@ -33,6 +33,9 @@ import numba
 import numpy as np
 
 from dcmppi.control.kernels.sums import halve
+from dcmppi.control.validation import positive
+
+AUTO = "auto"  # lambda_ chosen each step
 
 # Default share of K: about the ESS of the static forest at lambda = 1, where the paper's
 # table is reproduced, and below the 16 % of the samples in one DBSCAN ball (one mode).
@@ -51,6 +54,16 @@ LOG2E = 1.4426950408889634
 LN2_HI = 0.6931471803691238  # ln 2 in two parts (Cody and Waite): n ln 2 exact for |n| < 2^20
 LN2_LO = 1.9082149292705877e-10
 EXP_TAYLOR = (1.0 / 5040.0, 1.0 / 720.0, 1.0 / 120.0, 1.0 / 24.0, 1.0 / 6.0, 0.5, 1.0, 1.0)
+
+
+def temperature_param(value):
+    """lambda_ as a float, or "auto"; a ValueError for anything else."""
+    if isinstance(value, str) and value == AUTO:
+        return AUTO
+    try:
+        return positive("lambda_", value)
+    except ValueError:
+        raise ValueError(f"lambda_ must be a number > 0 or 'auto'; got {value!r}") from None
 
 
 def choose_lambda(S, ess_target, guess=None, largest=math.inf):

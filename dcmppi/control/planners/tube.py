@@ -216,8 +216,7 @@ class TubeMPPI(MPPI):
         lam = self.temperature(S)  # the chosen solve's (S does not depend on it)
         with timer("update"):
             plan, w = mppi_update(self.U, eps, S, lam)
-        sample = self.U + eps[:, :, np.argmin(J)] if self.has_guard else None
-        plan = self.smoothed(plan, z, sample)  # when it has a filter
+        plan = self.smoothed(plan)  # when it has a filter
         self.record(eps, states, J, S)
         d = self.diagnostics
         d.weights, d.ess, d.lambda_ = w, effective_sample_size(w), lam

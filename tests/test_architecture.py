@@ -185,6 +185,20 @@ def test_a_package_imports_only_what_its_rule_allows(package):
     assert not bad, f"{package} may import only {allowed[1:]} of dcmppi; found {sorted(bad)}"
 
 
+def test_nothing_below_the_command_line_imports_it():
+    """dcmppi.cli sits on top: no other module imports it, not even inside a function."""
+    cli = ROOT / "dcmppi" / "cli"
+    files = [p for root in PACKAGES.values() for p in root.rglob("*.py") if cli not in p.parents]
+    assert ROOT / "dcmppi" / "bench" / "timing" / "cli.py" in files  # a module named cli is not
+    bad = {
+        f"{path.relative_to(ROOT)}: {target}"
+        for path in files
+        for target in _imports(path, _module_name(path))
+        if _within(target, ("dcmppi.cli",))
+    }
+    assert not bad, f"only dcmppi.cli's own modules may import it; found {sorted(bad)}"
+
+
 def test_pyproject_installs_each_top_level_folder_as_the_package_maps_it():
     setuptools = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
     assert setuptools["package-dir"] == {"dcmppi": "dcmppi", **dcmppi.TOP_LEVEL_FOLDERS}

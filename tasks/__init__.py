@@ -20,7 +20,8 @@ motion), `pedestrians` (walkers: social force, ORCA, ...; the behaviours by name
 `physics` (the plant `Physics`: obstacle slots, contacts, clearance), `navigation` (the task
 `Navigation` and `PedestrianNavigation`: physics timestep, noise profiles, termination), one
 module per task family (`forest`, `crowd`, `corridor`, `square`, `two_valley`, `layout`,
-`replay`, with the recorded people's motion), `robots` (agent -> actuators), `barn` (BARN's score).
+`replay`, with the recorded people's motion), `robots` (agent -> actuators), `barn` (BARN's score);
+`_gl` picks MuJoCo's OpenGL backend before MuJoCo loads.
 
 May import MuJoCo, dm_control, numpy, navground and, of the rest of dcmppi, only the robot
 models dcmppi.control.agents (with dcmppi.control.kernels.dynamics, their motion), the social

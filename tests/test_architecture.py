@@ -3,6 +3,7 @@
 import ast
 import importlib
 import pathlib
+import re
 import subprocess
 import sys
 
@@ -183,6 +184,86 @@ def test_a_package_imports_only_what_its_rule_allows(package):
         if not _within(target, allowed)
     }
     assert not bad, f"{package} may import only {allowed[1:]} of dcmppi; found {sorted(bad)}"
+
+
+def test_nothing_below_the_command_line_imports_it():
+    """dcmppi.cli sits on top: no other module imports it, not even inside a function."""
+    cli = ROOT / "dcmppi" / "cli"
+    files = [p for root in PACKAGES.values() for p in root.rglob("*.py") if cli not in p.parents]
+    assert ROOT / "dcmppi" / "bench" / "timing" / "cli.py" in files  # a module named cli is not
+    bad = {
+        f"{path.relative_to(ROOT)}: {target}"
+        for path in files
+        for target in _imports(path, _module_name(path))
+        if _within(target, ("dcmppi.cli",))
+    }
+    assert not bad, f"only dcmppi.cli's own modules may import it; found {sorted(bad)}"
+
+
+def _packages():
+    """(folder, docstring, children) of every package of dcmppi, its top-level folders' included:
+    children are its modules' and subpackages' names (`__main__` and private ones too)."""
+    for root in PACKAGES.values():
+        for init in sorted(root.rglob("__init__.py")):
+            folder = init.parent
+            modules = [p.stem for p in folder.glob("*.py") if p.name != "__init__.py"]
+            packages = [d.name for d in folder.iterdir() if (d / "__init__.py").is_file()]
+            if folder == ROOT / "dcmppi":  # the top-level folders are its subpackages too
+                packages += [name.split(".")[-1] for name in dcmppi.TOP_LEVEL_FOLDERS]
+            yield folder, ast.get_docstring(ast.parse(init.read_text())) or "", modules + packages
+
+
+def _defines(module: str, name: str) -> bool:
+    """Whether dcmppi module `module` (a dotted name) has `name`: a submodule, or a name its
+    source binds at the top (def, class, assignment, import, __all__)."""
+    if _source(f"{module}.{name}"):
+        return True
+    path = _source(module)
+    if path is None:
+        return False
+    tree = ast.parse(path.read_text())
+    bound = set()
+    for node in tree.body:
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
+            bound.add(node.name)
+        elif isinstance(node, ast.Assign | ast.AnnAssign):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            bound |= {n.id for t in targets for n in ast.walk(t) if isinstance(n, ast.Name)}
+            if any(isinstance(t, ast.Name) and t.id == "__all__" for t in targets):
+                bound |= set(ast.literal_eval(node.value))
+        elif isinstance(node, ast.Import | ast.ImportFrom):
+            bound |= {(a.asname or a.name).split(".")[0] for a in node.names}
+    return name in bound
+
+
+def _source(module: str):
+    """The file of dcmppi module `module` (a dotted name), or None."""
+    for package, root in PACKAGES.items():
+        if module == package or module.startswith(package + "."):
+            path = root.joinpath(*module.split(".")[len(package.split(".")) :])
+            for candidate in (path / "__init__.py", path.with_suffix(".py")):
+                if candidate.is_file():
+                    return candidate
+    return None
+
+
+def test_each_package_docstring_names_its_modules_and_only_what_exists():
+    """A package's docstring names each module and subpackage it holds (as a word: `name`,
+    name.py, name/); the files (x.py, x/) and the dotted dcmppi names it mentions exist, a
+    file beside it or from the repository's root."""
+    lacking, stale = [], []
+    for folder, doc, children in _packages():
+        where = folder.relative_to(ROOT)
+        lacking += [f"{where}: {c}" for c in children if not re.search(rf"\b{c}\b", doc)]
+        for path in re.findall(r"(?<![\w/.-])((?:\w+/)*\w+(?:\.py|/))(?![\w/])", doc):
+            if not ((folder / path).exists() or (ROOT / path).exists()):
+                stale.append(f"{where}: {path}")
+        for name in re.findall(r"\bdcmppi(?:\.\w+)+", doc):
+            module, _, attribute = name.rpartition(".")
+            if not (_source(name) or _defines(module, attribute)):
+                stale.append(f"{where}: {name}")
+    assert not lacking, f"package docstrings that do not name a module of theirs: {lacking}"
+    assert not stale, f"package docstrings that name what does not exist: {stale}"
 
 
 def test_pyproject_installs_each_top_level_folder_as_the_package_maps_it():

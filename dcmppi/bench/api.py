@@ -22,7 +22,7 @@ from dcmppi.bench.episodes.runner import check_specs
 from dcmppi.bench.experiments import Experiment, load_experiment
 from dcmppi.bench.results.database import TABLE_COLUMNS, ResultsDB
 from dcmppi.bench.results.provenance import collect
-from dcmppi.bench.runs.execution import run_experiment
+from dcmppi.bench.runs.execution import check_run, run_experiment
 
 __all__ = ["BenchRun", "load", "run"]
 
@@ -92,10 +92,13 @@ def run(
     workers and is re-raised; the finished episodes stay in the database (rerun to resume).
     """
     exp = _experiment(experiment, episodes, rows, noises, task_params, controller_params)
-    _check(shard, workers, executor, ray_address, episode_timeout)
+    i, n = shard
+    if not 0 <= i < n:
+        raise ValueError(f"shard (i, n) needs 0 <= i < n, got {shard}")
+    check_run(workers, executor, ray_address, episode_timeout)  # before the database is made
     database = _open(exp, shard, db, allow_mixed)
-    how = dict(ray_address=ray_address, progress=progress, shard=shard, timeout=episode_timeout)
-    return _execute(exp, database, workers, executor, verbose, **how)
+    how = dict(ray_address=ray_address, progress=progress, episode_timeout=episode_timeout)
+    return _execute(exp, database, workers, executor, verbose, shard=shard, **how)
 
 
 def load(db: str | os.PathLike | BenchRun | Sequence[str | os.PathLike]):
@@ -141,7 +144,7 @@ def _open(exp: Experiment, shard, db, allow_mixed: bool) -> ResultsDB:
 
 def _execute(exp, database, workers, executor, verbose, shard, **how) -> BenchRun:
     """Run the episodes of `exp` in `shard` that `database` lacks (`how`: run_experiment's
-    ray_address, progress, timeout); close the database; say what was done."""
+    ray_address, progress, episode_timeout); close the database; say what was done."""
     total = exp.count(shard)
     before = sum(exp.wants(key, shard) for key in database.done())
     of = f", shard {shard[0]}/{shard[1]} of them" if shard[1] > 1 else ""
@@ -176,18 +179,6 @@ def _names(names) -> tuple[str, ...] | None:
     if names is None:
         return None
     return (names,) if isinstance(names, str) else tuple(names)
-
-
-def _check(shard, workers, executor, ray_address, episode_timeout) -> None:
-    i, n = shard
-    if not 0 <= i < n:
-        raise ValueError(f"shard (i, n) needs 0 <= i < n, got {shard}")
-    if workers < 1:
-        raise ValueError(f"--workers must be >= 1, got {workers}")
-    if ray_address and executor != "ray":
-        raise ValueError("--ray-address is for Ray's workers: add --executor ray")
-    if episode_timeout is not None and not episode_timeout > 0:
-        raise ValueError(f"--episode-timeout must be > 0 seconds, got {episode_timeout}")
 
 
 def _say(verbose: bool, line: str) -> None:

@@ -5,7 +5,7 @@ One module per command, each with `add_parser(subparsers, names)` (the command's
 `names`: what --help lists, `common.choices()`) and `run(args)` (the command; returns the exit
 status); `common` holds what they share. Errors of bad input or of the environment (ValueError,
 RuntimeError, OSError) are one line, "dcmppi COMMAND: error: ..." (exit 2); an episode whose
-controller raised is exit 1 (`common.EpisodeFailed`).
+controller raised is exit 1 (`common.EpisodeFailed`). `__main__` is `python -m dcmppi.cli`.
 
 Controllers are named as `dcmppi controllers` lists them, or `package.module:ClassName`,
 imported like `python -m` would: from the current directory first, then the installed packages.

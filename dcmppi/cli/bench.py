@@ -4,7 +4,7 @@
 import signal
 import sys
 
-from dcmppi.cli.common import SHARED, comma_list, command, key_values, params
+from dcmppi.cli.common import SHARED, comma_list, command, flag_names, key_values, params
 
 
 def add_parser(subparsers, names: dict) -> None:
@@ -73,7 +73,8 @@ def run(args) -> int:
     )
     previous = signal.signal(signal.SIGTERM, _terminate)
     try:
-        done = bench.run(args.experiment, **options)
+        with flag_names():
+            done = bench.run(args.experiment, **options)
     except KeyboardInterrupt as e:
         return 128 + signal.SIGTERM if isinstance(e, _Terminated) else 130
     finally:

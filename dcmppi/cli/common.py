@@ -125,6 +125,30 @@ def comma_list(text: str | None) -> tuple[str, ...] | None:
     return None if text is None else tuple(s.strip() for s in text.split(",") if s.strip())
 
 
+# dcmppi.bench.run's arguments, by the flag that sets each
+FLAGS = {
+    "episodes": "--episodes",
+    "rows": "--controllers",
+    "workers": "--workers",
+    "executor": "--executor",
+    "ray_address": "--ray-address",
+    "episode_timeout": "--episode-timeout",
+}
+
+
+@contextlib.contextmanager
+def flag_names():
+    """The Python API's ValueErrors about an argument, which begin with its name ("workers must
+    be >= 1, ..."), re-raised with the flag that sets it ("--workers must be >= 1, ...")."""
+    try:
+        yield
+    except ValueError as e:
+        name, space, rest = str(e).partition(" ")
+        if name not in FLAGS:
+            raise
+        raise ValueError(f"{FLAGS[name]}{space}{rest}") from e
+
+
 class EpisodeFailed(Exception):
     """An episode raised: a runtime error of a controller (exit 1), not bad input."""
 

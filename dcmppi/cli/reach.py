@@ -3,7 +3,7 @@ by them."""
 
 import sys
 
-from dcmppi.cli.common import command, key_values
+from dcmppi.cli.common import command, flag_names, key_values
 
 
 def add_parser(subparsers, names: dict) -> None:
@@ -25,7 +25,8 @@ def run(args) -> int:
     from dcmppi.bench.episodes.reachability import summary, survey
     from dcmppi.bench.experiments import load_experiment
 
-    exp = load_experiment(args.experiment).select(args.episodes, None, None)
+    with flag_names():
+        exp = load_experiment(args.experiment).select(args.episodes, None, None)
     exp = exp.with_params(key_values(args.task_param, "--task-param"), {})
     rows = _rows(args.db, exp) if args.db else []
 

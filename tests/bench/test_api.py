@@ -66,15 +66,18 @@ def test_run_writes_the_rows_the_cli_writes_and_resumes(tiny, tmp_path, capsys):
 @pytest.mark.parametrize(
     "options, message",
     [
-        ({"episodes": 0}, "--episodes must be >= 1"),
-        ({"workers": 0}, "--workers must be >= 1"),
+        ({"episodes": 0}, "episodes must be >= 1, got 0"),
+        ({"workers": 0}, "workers must be >= 1, got 0"),
         ({"rows": ("mppi", "fancy")}, "'fancy' is no row of tiny"),
         ({"noises": ("loud",)}, "unknown noise profile(s) loud"),
         ({"controller_params": {"seed": 3}}, "controller_params.seed: set per episode"),
         ({"task_params": {"time_limit": float("nan")}}, "task_params.time_limit: nan is not"),
         ({"controller_params": {"K": -1}}, "experiment tiny: "),
         ({"shard": (2, 2)}, "shard (i, n) needs 0 <= i < n, got (2, 2)"),
-        ({"ray_address": "auto"}, "--ray-address is for Ray's workers"),
+        ({"ray_address": "auto"}, "ray_address is for the ray executor, not 'local'"),
+        ({"executor": "slurm"}, "unknown executor 'slurm'; valid: local, ray"),
+        ({"episode_timeout": 0}, "episode_timeout must be > 0 seconds, got 0"),
+        ({"rows": ()}, "rows needs at least one row label or controller"),
     ],
 )
 def test_bad_input_raises_before_a_database_is_made(tiny, tmp_path, options, message):

@@ -120,7 +120,7 @@ def test_sys_exit_and_exceptions_are_error_rows_with_tracebacks(crashing):
 def test_a_stuck_episode_times_out_and_the_run_goes_on(crashing):
     db = Results()
     start = time.monotonic()
-    run_all(episodes("Sleeper", "Steady"), db, workers=1, progress=False, timeout=3.0)
+    run_all(episodes("Sleeper", "Steady"), db, workers=1, progress=False, episode_timeout=3.0)
     assert db.results[("none", "Sleeper", 0)] == {
         "error": "timeout: no result after 3 s (--episode-timeout)"
     }
@@ -288,7 +288,7 @@ def test_ray_records_dead_workers_and_timeouts(crashing):
     pytest.importorskip("ray")
     db = Results()
     todo = episodes("Killer", "Sleeper", "Steady")
-    run_all(todo, db, workers=2, executor="ray", progress=False, timeout=20.0)
+    run_all(todo, db, workers=2, executor="ray", progress=False, episode_timeout=20.0)
     assert db.results[("none", "Killer", 0)]["error"].startswith("worker died")
     assert db.results[("none", "Sleeper", 0)]["error"].startswith("timeout: no result after 20 s")
     assert db.results[("none", "Steady", 0)]["outcome"] == "time_limit"

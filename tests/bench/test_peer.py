@@ -7,7 +7,7 @@ import sys
 import numpy as np
 import pytest
 
-from dcmppi.bench import timing
+from dcmppi import cli
 from dcmppi.bench.timing import peer
 from dcmppi.bench.timing.loop import ClosedLoop
 from dcmppi.bench.timing.worlds import world
@@ -21,7 +21,7 @@ def test_against_without_the_packages_prints_the_install_command(monkeypatch, ca
     # sys.modules["torch"] on import: loaded first, as with torch absent
     make_controller("clustered")
     monkeypatch.setitem(sys.modules, "torch", None)  # `import torch` raises ImportError
-    assert timing.main(["--against", "pytorch_mppi", "--steps", "5"]) == 2
+    assert cli.main(["timing", "--against", "pytorch_mppi", "--steps", "5"]) == 2
     out = capsys.readouterr()
     assert out.out == ""
     assert out.err.count("\n") == 1
@@ -123,7 +123,7 @@ def test_the_peer_needs_a_fixed_temperature():
 def test_against_takes_the_problem_size(capsys):
     _peer()
     argv = ["--against", "pytorch_mppi", "--K", "64", "--N", "20", "--steps", "5", "--json"]
-    assert timing.main(argv) == 0
+    assert cli.main(["timing", *argv]) == 0
     result = json.loads(capsys.readouterr().out)
     assert (result["settings"]["K"], result["settings"]["N"]) == (64, 20)
     ours = ClosedLoop("mppi", "forest", 5, perturbation="time_varying", K=64, N=20)
@@ -135,7 +135,7 @@ def test_against_times_our_threads_in_the_same_run(capsys):
     """--threads 2: a third row, ours on two threads, interleaved; it drives the same path."""
     _peer()
     argv = ["--against", "pytorch_mppi", "--K", "200", "--N", "15", "--steps", "8"]
-    assert timing.main([*argv, "--threads", "2", "--json"]) == 0
+    assert cli.main(["timing", *argv, "--threads", "2", "--json"]) == 0
     result = json.loads(capsys.readouterr().out)
     t = result["threaded"]
     assert t["threads"] == 2 and t["same_path"] and t["median_ms"] > 0
@@ -143,14 +143,14 @@ def test_against_times_our_threads_in_the_same_run(capsys):
     assert sorted(t["speedup_blocks"]) == t["speedup_blocks"] and len(t["speedup_blocks"]) == 3
     gains = result["machine_gains"]
     assert gains["threads"] == 2 and min(gains[k] for k in ("compute", "vector", "stream")) > 0
-    assert timing.main([*argv, "--threads", "2"]) == 0
+    assert cli.main(["timing", *argv, "--threads", "2"]) == 0
     out = capsys.readouterr().out
     assert "mppi (dcmppi, threads=2)" in out and "ours / ours with threads=2 = " in out
     assert "the same path: yes" in out
     assert "this machine, 2 threads at once (the bounds of a split): scalar arithmetic " in out
     assert ", vector arithmetic in L1 " in out
     assert "between the quartiles" in out and ", per block " in out
-    assert timing.main([*argv, "--json"]) == 0
+    assert cli.main(["timing", *argv, "--json"]) == 0
     assert not {"threaded", "machine_gains"} & json.loads(capsys.readouterr().out).keys()
 
 
@@ -176,7 +176,7 @@ def test_against_times_our_threads_in_the_same_run(capsys):
 )
 def test_a_bad_size_is_one_line_naming_it(argv, message, capsys):
     with pytest.raises(SystemExit) as exit:
-        timing.main(argv)
+        cli.main(["timing", *argv])
     assert exit.value.code == 2
     out = capsys.readouterr()
     assert out.out == "" and out.err == f"dcmppi timing: error: {message} (see --help)\n"

@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 
 from dcmppi import cli
-from dcmppi.bench import timing
 from dcmppi.bench.results import provenance
 from dcmppi.bench.timing import cases, cores, episodes, loop, profile, scaling
 from dcmppi.bench.timing.worlds import dense_forest, world
@@ -22,7 +21,7 @@ def test_every_case_reports_a_ratio_to_its_reference_and_a_target(capsys, monkey
     labels = ("mppi", "clustered", "mppi holonomic")
     selected = tuple(c for c in cases.CASES if c.label in labels and c.problem == "forest")
     monkeypatch.setattr(cases, "CASES", selected)
-    assert timing.main(["--steps", "6", "--json"]) == 0
+    assert cli.main(["timing", "--steps", "6", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)["results"]
     assert [r["case"] for r in rows] == ["mppi", "clustered", "mppi holonomic"]
     assert rows[0]["ratio"] == 1.0 and rows[0]["target"] == "<= 0.2 ms"
@@ -43,7 +42,7 @@ def test_the_pedestrian_problems_have_their_rows_and_targets(capsys, monkeypatch
     assert rows["dc-social", "corridor"].target_ms == 5.0
     selected = (rows["mppi", "crowd-sf"], rows["dc-social", "crowd-sf"])
     monkeypatch.setattr(cases, "CASES", selected)
-    assert timing.main(["--steps", "6", "--json"]) == 0
+    assert cli.main(["timing", "--steps", "6", "--json"]) == 0
     mppi, social = json.loads(capsys.readouterr().out)["results"]
     assert social["reference"] == "mppi" and social["target"] == "<= 20.0 ms"
     assert social["ratio"] == social["median_ms"] / mppi["median_ms"]  # crowd-sf's own mppi
@@ -154,7 +153,7 @@ def test_profile_sums_each_label_per_step_through_the_timer_hook(capsys):
 def test_profile_times_the_parts_each_controller_calls(capsys):
     if getattr(make_controller("mppi"), "timer", None) is not NO_TIMER:
         pytest.skip("the controllers do not have the timer hook (dcmppi.control.timer) yet")
-    assert timing.main(["--profile", "--steps", "8", "--json"]) == 0
+    assert cli.main(["timing", "--profile", "--steps", "8", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert list(out) == [c.label for c in cases.PROFILE_CASES]
     mppi, clustered, dc = out["mppi"]["parts"], out["clustered"]["parts"], out["dc"]["parts"]
@@ -178,7 +177,7 @@ def test_fingerprint_repeats_and_tells_controllers_and_perturbations_apart(capsy
     monkeypatch.setattr(cases, "FINGERPRINT_CASES", selected)
     runs = []
     for _ in range(2):
-        assert timing.main(["--fingerprint", "--steps", "6", "--json"]) == 0
+        assert cli.main(["timing", "--fingerprint", "--steps", "6", "--json"]) == 0
         out = json.loads(capsys.readouterr().out)
         assert out["kernels"] == provenance.kernels()  # the hashes are this machine's
         runs.append(out["results"])
@@ -191,7 +190,7 @@ def test_fingerprint_repeats_and_tells_controllers_and_perturbations_apart(capsy
 @pytest.mark.slow
 def test_python_m_runs_the_profile():
     out = subprocess.run(
-        [sys.executable, "-m", "dcmppi.bench.timing", "--profile", "--steps", "5", "--json"],
+        [sys.executable, "-m", "dcmppi.cli", "timing", "--profile", "--steps", "5", "--json"],
         check=True,
         capture_output=True,
         text=True,
@@ -239,7 +238,7 @@ def test_scaling_times_a_tiny_grid_and_writes_its_json_and_plot(capsys, monkeypa
     pytest.importorskip("matplotlib")
     monkeypatch.setattr(scaling, "AXES", TINY_AXES)
     monkeypatch.setattr(scaling, "BASE", TINY_BASE)
-    assert timing.main(["--scaling", "--steps", "5", "--json", "--out", str(tmp_path)]) == 0
+    assert cli.main(["timing", "--scaling", "--steps", "5", "--json", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr()
     report = json.loads(out.out)
     assert report == json.loads((tmp_path / "scaling.json").read_text())
@@ -279,7 +278,7 @@ def test_scaling_times_a_tiny_grid_and_writes_its_json_and_plot(capsys, monkeypa
 def test_scaling_prints_a_table_per_axis_and_the_fits(capsys, monkeypatch):
     monkeypatch.setattr(scaling, "AXES", TINY_AXES[-1:])
     monkeypatch.setattr(scaling, "BASE", TINY_BASE)
-    assert timing.main(["--scaling", "--steps", "5"]) == 0
+    assert cli.main(["timing", "--scaling", "--steps", "5"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert lines[0].startswith("dcmppi timing --scaling: median ms per step, one thread, 5 steps")
     assert lines[2].split() == ["futures", "per", "obstacle", "P", "(crowd)", "dc"]
@@ -317,7 +316,9 @@ def test_the_experiment_profile_splits_steps_and_episodes_and_projects_the_run(t
     path = tmp_path / "short.toml"
     path.write_text(_SHORT)
     assert (
-        timing.main(["--profile", str(path), "--environments", "2", "--workers", "4", "--json"])
+        cli.main(
+            ["timing", "--profile", str(path), "--environments", "2", "--workers", "4", "--json"]
+        )
         == 0
     )
     report = json.loads(capsys.readouterr().out)
@@ -344,7 +345,7 @@ def test_the_experiment_profile_splits_steps_and_episodes_and_projects_the_run(t
     each = 100 * sum(r["episode_s"] for r in rows.values())
     assert projection["minutes"] == pytest.approx(each / 4 / 60)
     assert 0 < projection["floor_minutes"] < projection["minutes"]
-    assert timing.main(["--profile", str(path), "--environments", "1"]) == 0
+    assert cli.main(["timing", "--profile", str(path), "--environments", "1"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert lines[1].split() == ["mppi", "clustered"]
     assert "      DBSCAN" not in lines and any(line.startswith("    DBSCAN") for line in lines)
@@ -357,7 +358,7 @@ def test_the_experiment_profile_times_the_moving_obstacles_motion(tmp_path, caps
         'task = "crowd"\nepisodes = 3\ntask_params = { time_limit = 2.0 }\n'
         '[[rows]]\nlabel = "mppi"\ncontroller = "mppi"\n'
     )
-    assert timing.main(["--profile", str(path), "--environments", "1", "--json"]) == 0
+    assert cli.main(["timing", "--profile", str(path), "--environments", "1", "--json"]) == 0
     step = json.loads(capsys.readouterr().out)["rows"]["mppi"]["per_step_us"]
     assert 0 < step["obstacle motion"] < step["env.step"]
 
@@ -394,13 +395,13 @@ def test_a_profiled_episode_is_the_bench_episode(tmp_path):
 )
 def test_the_experiment_profile_refuses_bad_options_in_one_line(argv, message, capsys):
     with pytest.raises(SystemExit, match="2"):
-        timing.main(argv)
+        cli.main(["timing", *argv])
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1
 
 
 def test_an_unknown_experiment_to_profile_is_one_line(capsys):
-    assert timing.main(["--profile", "desert"]) == 2
+    assert cli.main(["timing", "--profile", "desert"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "unknown experiment 'desert'; valid: barn, " in err[0]
 
@@ -410,7 +411,7 @@ def test_a_row_the_bench_would_refuse_is_refused_before_any_episode(tmp_path, ca
     path.write_text(
         _SHORT.replace('controller = "clustered"', 'controller = "clustered"\nparams = { K = 0 }')
     )
-    assert timing.main(["--profile", str(path), "--environments", "1"]) == 2
+    assert cli.main(["timing", "--profile", str(path), "--environments", "1"]) == 2
     out, err = capsys.readouterr()
     assert out == "" and len(err.strip().splitlines()) == 1 and "K must be" in err
 
@@ -449,15 +450,3 @@ def test_timing_is_a_subcommand_of_the_one_parser(capsys):
     assert exit.value.code == 2
     err = capsys.readouterr().err
     assert err == "dcmppi timing: error: unrecognized arguments: --bogus (see --help)\n"
-
-
-@pytest.mark.slow
-def test_python_m_timing_is_dcmppi_timing():
-    run = subprocess.run(
-        [sys.executable, "-m", "dcmppi.bench.timing", "--K", "64"], capture_output=True, text=True
-    )
-    assert run.returncode == 2 and run.stdout == ""
-    assert run.stderr == (
-        "dcmppi timing: error: --K sets the size of --against's problem: add --against "
-        "pytorch_mppi (see --help)\n"
-    )

@@ -5,6 +5,10 @@ import numpy as np
 import pytest
 
 import dcmppi
+from dcmppi.control.agents import register_agent
+from dcmppi.control.agents.base import AGENTS as AGENT_REGISTRY
+from dcmppi.control.agents.dubins import Dubins
+from dcmppi.control.agents.holonomic import Holonomic
 
 AGENTS = {
     "orca": ("holonomic", "unicycle"),
@@ -63,6 +67,34 @@ def test_the_car_is_refused_with_one_line_naming_the_agents(name):
     with pytest.raises(ValueError, match=f"'{name}' drives the holonomic, unicycle agents; got "
                        "'dubins'"):  # fmt: skip
         dcmppi.make_controller(name, agent="dubins")
+
+
+def test_a_new_agent_drives_them_as_the_agent_it_resembles():
+    """The planners ask the agent (holonomic, steers_only, command, world_velocity), never its
+    name: a registered copy of the holonomic robot and of the car plan as the originals do."""
+
+    @register_agent("walker")
+    class Walker(Holonomic):
+        pass
+
+    @register_agent("kart")
+    class Kart(Dubins):
+        pass
+
+    static, moving = np.array([[5.0, 0.2, 1.0]]), [[9.0, 0.5, -1.0, 0.0, 0.5]]
+    try:
+        for new, old in (("walker", "holonomic"), ("kart", "dubins")):
+            for name, agents in AGENTS.items():
+                if old in agents:
+                    *_, a = closed_loop(name, new, static=static, moving=moving, steps=40)
+                    *_, b = closed_loop(name, old, static=static, moving=moving, steps=40)
+                    assert a.tobytes() == b.tobytes(), (name, new)
+        with pytest.raises(ValueError, match="drives the holonomic, unicycle, walker agents; got "
+                           "'kart'"):  # fmt: skip
+            dcmppi.make_controller("orca", agent="kart")
+    finally:
+        AGENT_REGISTRY.unregister("walker")
+        AGENT_REGISTRY.unregister("kart")
 
 
 @pytest.mark.parametrize("name, agent", CASES)

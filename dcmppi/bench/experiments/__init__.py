@@ -222,11 +222,11 @@ class Experiment:
         exp = self
         if episodes is not None:
             if episodes < 1:
-                raise ValueError(f"--episodes must be >= 1, got {episodes}")
+                raise ValueError(f"episodes must be >= 1, got {episodes}")
             exp = dataclasses.replace(exp, episodes=episodes)
         if rows is not None:
             if not rows:
-                raise ValueError("--controllers needs at least one row label or controller")
+                raise ValueError("rows needs at least one row label or controller")
             rows = tuple(dict.fromkeys(rows))
             extra = tuple(_own_row(exp, item) for item in rows if item not in exp._all_labels())
             exp = dataclasses.replace(exp, rows=exp.rows + extra, selected=rows)

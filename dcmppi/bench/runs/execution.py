@@ -7,10 +7,11 @@ writes the database, one committed row per finished episode.
 Every episode runs in a worker process (with one worker too), so nothing an episode does ends
 the bench: an exception (SystemExit included) is an error row with its traceback; a worker that
 dies (a segfault, the OOM killer, a controller's `os.kill`) is the error row "worker died
-(signal N)" of the episode it held, and a fresh worker takes its place; an episode still running
-after `timeout` seconds is killed and recorded as a timeout. Local workers run in a session of
-their own (a Ctrl-C reaches the parent only, which kills them at once) and exit with their
-parent, even a SIGKILLed one (PR_SET_PDEATHSIG on Linux, a parent-pid watchdog thread).
+(signal N)" of the episode it held, and a fresh worker takes its place; an episode still
+running after `episode_timeout` seconds is killed and recorded as a timeout. Local workers run
+in a session of their own (a Ctrl-C reaches the parent only, which kills them at once) and exit
+with their parent, even a SIGKILLed one (PR_SET_PDEATHSIG on Linux, a parent-pid watchdog
+thread).
 
 Workers tune glibc's malloc for the controllers' per-step temporaries
 (`dcmppi.control.kernels._malloc.tune_malloc`) before their first episode.
@@ -91,7 +92,7 @@ def run_experiment(
     ray_address: str | None = None,
     progress: bool = True,
     shard: tuple[int, int] = (0, 1),
-    timeout: float | None = None,
+    episode_timeout: float | None = None,
 ) -> Progress:
     """Run the episodes of `exp` (a `dcmppi.bench.experiments.Experiment`) in `shard` (i, n):
     environments with index % n == i, that `db` does not hold yet. The database records the
@@ -112,7 +113,7 @@ def run_experiment(
             exp.name,
             progress,
             total=exp.count(shard) - held,
-            timeout=timeout,
+            episode_timeout=episode_timeout,
             plugins=plugin_names(spec for _, spec in first_environment),
         )
     finally:
@@ -128,24 +129,20 @@ def run_all(
     label: str = "bench",
     progress: bool = True,
     total: int | None = None,
-    timeout: float | None = None,
+    episode_timeout: float | None = None,
     plugins: set[str] | None = None,
 ) -> Progress:
     """Run `todo` = [(key, spec)] and record each result in `db` as it finishes.
 
     `total` is the number of episodes in `todo` (default: counted), for the progress line;
-    `timeout` the seconds after which a running episode is killed and recorded as a timeout;
-    `plugins` the controller and predictor names of `todo` (`plugin_names`; Ray's workers get
-    their directories), default: read from `todo`.
+    `episode_timeout` the seconds after which a running episode is killed and recorded as a
+    timeout; `plugins` the controller and predictor names of `todo` (`plugin_names`; Ray's
+    workers get their directories), default: read from `todo`. Bad arguments raise ValueError
+    (`check_run`).
     On KeyboardInterrupt the workers are killed at once (the finished episodes are already
     committed) and the interrupt is re-raised.
     """
-    if executor not in EXECUTORS:
-        raise ValueError(f"unknown executor {executor!r}; valid: {', '.join(EXECUTORS)}")
-    if workers < 1:
-        raise ValueError(f"--workers must be >= 1, got {workers}")
-    if timeout is not None and not timeout > 0:
-        raise ValueError(f"--episode-timeout must be > 0 seconds, got {timeout}")
+    check_run(workers, executor, ray_address, episode_timeout)
     if total is None:
         todo = list(todo)  # an iterator has no len
         total = len(todo)
@@ -154,9 +151,9 @@ def run_all(
         if plugins is None:
             todo = list(todo)
             plugins = plugin_names(spec for _, spec in todo)
-        results = _ray(todo, workers, ray_address, timeout, plugins)
+        results = _ray(todo, workers, ray_address, episode_timeout, plugins)
     else:
-        results = _local(todo, workers, timeout)
+        results = _local(todo, workers, episode_timeout)
     try:
         for key, spec, result in results:
             db.record(key, spec, result)
@@ -164,6 +161,18 @@ def run_all(
     finally:
         results.close()  # stops the workers now, also on KeyboardInterrupt
     return bar
+
+
+def check_run(workers: int, executor: str, ray_address: str | None, episode_timeout) -> None:
+    """A ValueError, one line naming the argument, unless `run_all` can run with these."""
+    if executor not in EXECUTORS:
+        raise ValueError(f"unknown executor {executor!r}; valid: {', '.join(EXECUTORS)}")
+    if workers < 1:
+        raise ValueError(f"workers must be >= 1, got {workers}")
+    if ray_address and executor != "ray":
+        raise ValueError(f"ray_address is for the ray executor, not {executor!r}")
+    if episode_timeout is not None and not episode_timeout > 0:
+        raise ValueError(f"episode_timeout must be > 0 seconds, got {episode_timeout}")
 
 
 def plugin_names(specs: Iterable[EpisodeSpec]) -> set[str]:

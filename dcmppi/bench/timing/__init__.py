@@ -35,27 +35,13 @@ closed loop, interleaved timing), `profile` (`--profile`, through the controller
 `episodes` (`--profile EXPERIMENT`: bench episodes, dcmppi.bench.episodes.runner's, end to end),
 `fingerprint` (`--fingerprint`), `cores` (the machine's gains from threads), `scaling`
 (`--scaling`: the curves, their fits and plot), `cli` (what each mode runs and prints; the
-options are dcmppi.cli.timing's, a subcommand of the one `dcmppi` parser). `main` and `python -m
-dcmppi.bench.timing` are `dcmppi timing`, whose entry point tunes malloc for the process (only
-entry points do). May import
+options are dcmppi.cli.timing's, a subcommand of the one `dcmppi` parser). May import
 dcmppi.control, the tasks' world generators (dcmppi.tasks.worlds), their pedestrians and task
 classes (for the pedestrian problems' worlds and next goals), dcmppi.bench.timing.peer,
 dcmppi.bench's runner, results and experiments (the episode profile), and dcmppi.render (the
-scaling plot, given plain numbers), and in `main` the command line (dcmppi.cli), which alone
-imports it.
+scaling plot, given plain numbers); never the command line (dcmppi.cli), which imports it.
 """
-
-import sys
 
 from dcmppi.bench.timing.worlds import forest, push, pushed
 
-
-def main(argv: list[str] | None = None) -> int:
-    """`dcmppi timing ARGV` (default: sys.argv[1:]) through the `dcmppi` parser; returns the exit
-    status (bad options: SystemExit 2, one line)."""
-    from dcmppi import cli
-
-    return cli.main(["timing", *(sys.argv[1:] if argv is None else argv)])
-
-
-__all__ = ["main", "forest", "push", "pushed"]
+__all__ = ["forest", "push", "pushed"]

@@ -19,18 +19,26 @@ def fingerprint(cases, steps):
     rows = []
     with threadpool_limits(1):
         for case in cases:
-            loop = ClosedLoop(case.controller, case.problem, steps, **case.params)
-            actions = [loop.step() for _ in range(steps)]
-            digest = hashlib.sha1(np.ascontiguousarray(actions, dtype=np.float64).tobytes())
             rows.append(
                 {
                     "case": case.label,
                     "problem": case.problem,
                     "params": case.params,
-                    "sha1": digest.hexdigest(),
+                    "sha1": sha1(loop_actions(case, steps)),
                 }
             )
     return rows
+
+
+def loop_actions(case, steps):
+    """The actions (steps, nu) float64 of a case's closed loop over `steps` steps."""
+    loop = ClosedLoop(case.controller, case.problem, steps, **case.params)
+    return np.array([loop.step() for _ in range(steps)], dtype=np.float64)
+
+
+def sha1(actions) -> str:
+    """The sha1 of actions (steps, nu) as contiguous float64 bytes."""
+    return hashlib.sha1(np.ascontiguousarray(actions, dtype=np.float64).tobytes()).hexdigest()
 
 
 def print_fingerprint(rows, steps, kernels):

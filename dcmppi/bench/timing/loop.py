@@ -67,21 +67,33 @@ class ClosedLoop:
             self.crowd = moving_crowd(w, self.ctrl.dt) if len(w.moving) else None
             self.velocity = None
         self.times = []
+        self.periods = 0  # control periods the world has moved
 
     def step(self):
-        """One control step; its controller time is appended to `times` [s]. Returns the
-        action (nu,)."""
-        ctrl = self.ctrl
+        """One control step (`act`, then `advance` by its action). Returns the action (nu,)."""
+        u = self.act()
+        self.advance(u)
+        return u
+
+    def act(self):
+        """The controller's action (nu,) now; its time is appended to `times` [s]."""
         t0 = time.perf_counter()
-        u = ctrl.act(
+        u = self.ctrl.act(
             self.state, self.goal, self.static, self.moving, self.model, self.bounds,
             moving_velocity=self.velocity,
         )  # fmt: skip
         self.times.append(time.perf_counter() - t0)
+        return u
+
+    def advance(self, u):
+        """One control period under action u (nu,), whoever chose it (a replay of another
+        loop's actions): the robot moves (and on forest+push is pushed), the obstacles with it."""
+        ctrl = self.ctrl
         start = self.state
         self.state = ctrl.agent.step(self.state, u, ctrl.dt)
         if self.offsets is not None:
-            self.state = pushed(self.state, self.offsets[len(self.times) - 1])
+            self.state = pushed(self.state, self.offsets[self.periods])
+        self.periods += 1
         if self.velocity is not None:  # pedestrians: they plan the step from its start
             self.crowd.advance(1, start[:2], self.robot_velocity)
             self.robot_velocity = (self.state[:2] - start[:2]) / ctrl.dt
@@ -90,7 +102,6 @@ class ClosedLoop:
             self.crowd.advance(1)
         if self.crowd is not None:
             self.moving = observed(self.crowd, self.radius)
-        return u
 
     def summary(self):
         """Median and p95 ms per step, skipping the first SKIP steps."""

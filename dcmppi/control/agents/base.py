@@ -13,6 +13,11 @@ holonomic robot's planar speed). The planners see an agent through:
     agent.jacobians(X, U, dt) A (N, 3, 3), B (N, 3, nu) of that step along a trajectory
     agent.first_guess(x, goal, N)   the warm start (N, nu) of an episode's first step
     agent.max_speed           fastest planar speed [m/s] (for what can be reached in a horizon)
+    agent.omega_max           fastest turn rate [rad/s]
+    agent.holonomic           whether it moves in any planar direction without turning
+    agent.steers_only         whether its speed is fixed (max_speed): its controls only turn it
+    agent.command(v, omega)   the controls (nu,) of a planar velocity and a turn rate
+    agent.world_velocity(heading, u)  the world-frame velocity (2,) and turn rate of controls u
     agent.default_Sigma       sampling variance of each control, in its own units
     agent.default_perturbation  "constant", "time_varying" or "mixed"
 
@@ -76,8 +81,10 @@ class Agent:
     """Base of the analytic agent models (see the module docstring for the interface).
 
     Subclasses set `controls`, `param_names` (keyword parameters, also accepted by the tasks
-    for the plant), `default_Sigma`, `default_perturbation`, and in __init__ the bounds via
-    `set_bounds`; they implement `rollout`, `step` and `jacobians`.
+    for the plant), `default_Sigma`, `default_perturbation`, `holonomic` and `steers_only`
+    where true, and in __init__ `omega_max` and the bounds via `set_bounds`; they implement
+    `rollout`, `step` and `jacobians`, and for the classical planners `command` and
+    `world_velocity`.
     """
 
     name = None
@@ -87,6 +94,8 @@ class Agent:
     default_perturbation = "constant"
     norm_axes: tuple[int, ...] | None = None
     norm_limit = math.inf
+    holonomic = False
+    steers_only = False
 
     @property
     def nu(self) -> int:
@@ -171,6 +180,17 @@ class Agent:
                     f"Sigma of {c} must be at least 1e-308 (a finite 1 / Sigma); got {s}"
                 )
         return values.reshape(-1)
+
+    def command(self, velocity, omega):
+        """The controls (nu,) that command the planar velocity (2,) and the turn rate omega, as
+        far as the agent can: the velocity in the world frame for a holonomic agent, else in the
+        robot's (forward, lateral), whose lateral part it drops (and its forward part, where it
+        steers only)."""
+        raise NotImplementedError
+
+    def world_velocity(self, heading, u):
+        """The world-frame velocity (2,) and the turn rate of controls u (nu,) at `heading`."""
+        raise NotImplementedError
 
     def first_guess(self, state, goal, N):
         """Warm start (N, nu) of an episode's first step (default: zero controls)."""

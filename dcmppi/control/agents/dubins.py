@@ -4,6 +4,8 @@ State (x, y, theta); one control, the turn rate omega, |omega| <= v / r_min; the
 fixed. Each control period is an exact arc (dcmppi.control.kernels.dynamics).
 """
 
+import math
+
 import numpy as np
 
 from dcmppi.control import defaults
@@ -20,6 +22,7 @@ class Dubins(Agent):
     param_names = ("v", "r_min")
     default_Sigma = (defaults.SIGMA,)
     default_perturbation = "constant"  # paper Sec. IV-A
+    steers_only = True
 
     def __init__(self, v=defaults.V, r_min=defaults.R_MIN):
         self.v = positive("v", v)
@@ -30,6 +33,12 @@ class Dubins(Agent):
     @property
     def max_speed(self):
         return self.v
+
+    def command(self, velocity, omega):
+        return np.array([omega])
+
+    def world_velocity(self, heading, u):
+        return self.v * np.array([math.cos(heading), math.sin(heading)]), float(u[-1])
 
     def rollout(self, x0, u, dt, starts=1):
         return arc_rollout(x0, u, dt, self.v, starts)

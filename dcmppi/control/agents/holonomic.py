@@ -25,6 +25,7 @@ class Holonomic(Agent):
     default_Sigma = (defaults.SIGMA_VELOCITY, defaults.SIGMA_VELOCITY, defaults.SIGMA)
     default_perturbation = "mixed"  # docs/design.md, Experiments
     norm_axes = (0, 1)
+    holonomic = True
 
     def __init__(self, v_max=defaults.HOLONOMIC_V_MAX, omega_max=defaults.HOLONOMIC_OMEGA_MAX):
         self.v_max = positive("v_max", v_max)
@@ -42,6 +43,12 @@ class Holonomic(Agent):
         n = np.hypot(*d)
         direction = d / n if n > 0 else np.zeros(2)
         return np.tile([*(self.v_max * direction), 0.0], (N, 1))
+
+    def command(self, velocity, omega):
+        return np.array([velocity[0], velocity[1], omega])
+
+    def world_velocity(self, heading, u):
+        return np.array([u[0], u[1]]), float(u[2])
 
     def rollout(self, x0, u, dt, starts=1):
         n, _, k = u.shape

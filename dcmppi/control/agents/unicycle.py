@@ -4,6 +4,8 @@ State (x, y, theta); controls the forward speed v in [0, v_max] and the turn rat
 [-omega_max, omega_max]. Each control period is an exact arc with both held.
 """
 
+import math
+
 import numpy as np
 
 from dcmppi.control import defaults
@@ -37,6 +39,12 @@ class Unicycle(Agent):
     def first_guess(self, state, goal, N):
         """Full speed straight ahead."""
         return np.tile([self.v_max, 0.0], (N, 1))
+
+    def command(self, velocity, omega):
+        return np.array([velocity[0], omega])
+
+    def world_velocity(self, heading, u):
+        return float(u[0]) * np.array([math.cos(heading), math.sin(heading)]), float(u[-1])
 
     def rollout(self, x0, u, dt, starts=1):
         return arc_rollout(x0, u, dt, None, starts)  # u: (N, 2, K) speeds, turn rates

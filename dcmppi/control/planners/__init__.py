@@ -12,6 +12,7 @@
     smoothing.py     the plan's filter, hysteresis in the choice of cluster (preset "smooth")
     diagnostics.py   what a step leaves for plots, videos and the bench
     registry.py      the controllers by name (built-ins load on first use)
+    classical/       the field's classical planners (orca, hrvo, hl, social_force, dwa)
 
 May import anything of dcmppi.control; nothing below it imports a planner.
 """

@@ -14,6 +14,8 @@ parameters (`own_params`) alongside the planner's. Built in:
 - "learned": P recorded continuations of the most similar recorded situations, from a model
   that `dcmppi predictor train` fits to recorded crowds (parameter model: its file).
 A new predictor is a `Predictor` subclass registered by name (README, "Your own predictor").
+One module each, beside base.py (the interface, its result, the registry) and filter.py (the
+EKF of one obstacle that "ekf" runs).
 
 May import numpy, numba, scipy (the learned model), dcmppi.control's kernels (dynamics, normal,
 social), validation and registry; never a planner, MuJoCo or the tasks (a predictor sees

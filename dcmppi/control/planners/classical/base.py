@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 from dcmppi.control import defaults
-from dcmppi.control.agents import make_agent
+from dcmppi.control.agents import Agent, agent_class, agent_names, make_agent
 from dcmppi.control.kernels.costs import valid_cylinders
 from dcmppi.control.kernels.projection import bound
 from dcmppi.control.planners.controller import observed_velocity, seed_param, state_and_goal
@@ -33,15 +33,17 @@ PLAN_STEPS = 20  # the drawn plan: the command held for this many control steps 
 class Classical:
     """Base of the classical controllers (orca, hrvo, hl, social_force, dwa).
 
-    Args (keywords): agent (a name among the class's `agents`) and its parameters (dubins: v,
-      r_min; unicycle and holonomic: v_max, omega_max; None: the agent's default), robot_radius
-      [m], dt: the control period [s], seed: accepted for the common interface (these planners
-      draw nothing: the same observations give the same commands).
-    A subclass lists its agents in `agents` and implements `_solve(obs)` -> (nu,) controls.
+    Args (keywords): agent (a registered name or an Agent; one that steers only where the
+      class's `needs_speed` allows) and its parameters (dubins: v, r_min; unicycle and
+      holonomic: v_max, omega_max; None: the agent's default), robot_radius [m], dt: the
+      control period [s], seed: accepted for the common interface (these planners draw
+      nothing: the same observations give the same commands).
+    A subclass implements `_solve(obs)` -> (nu,) controls, through the agent's answers
+    (`holonomic`, `steers_only`, `command`, `world_velocity`), never its name.
     """
 
     name = None
-    agents = ("dubins", "unicycle", "holonomic")
+    needs_speed = False  # whether it refuses an agent that steers only (at a fixed speed)
     samples = False  # whether _solve leaves its sampled trajectories in diagnostics.states
     default_prediction = "frozen"  # read by make_controller's parameter check; none is used
 
@@ -57,11 +59,12 @@ class Classical:
         v_max=None,
         omega_max=None,
     ):
-        name = getattr(agent, "name", agent)
-        if name not in self.agents:
+        kind = type(agent) if isinstance(agent, Agent) else agent_class(agent)
+        if self.needs_speed and kind.steers_only:
+            valid = [n for n in agent_names() if not agent_class(n).steers_only]
             raise ValueError(
-                f"controller {self.name!r} drives the {', '.join(self.agents)} agents; got "
-                f"{name!r} (--task-param agent=NAME)"
+                f"controller {self.name!r} drives the {', '.join(valid)} agents; got "
+                f"{kind.name!r} (--task-param agent=NAME)"
             )
         given = {"v": v, "r_min": r_min, "v_max": v_max, "omega_max": omega_max}
         self.agent = make_agent(agent, **{k: x for k, x in given.items() if x is not None})
@@ -131,7 +134,7 @@ class Classical:
             bounds=None if bounds is None else floats("bounds", bounds).reshape(4),
         )
         u = bound(self.agent, np.asarray(self._solve(obs), dtype=np.float64))
-        self.velocity, self.omega = world_velocity(self.agent, state[2], u)
+        self.velocity, self.omega = self.agent.world_velocity(state[2], u)
         plan = np.tile(u, (PLAN_STEPS, 1))
         d = self.diagnostics
         if not self.samples:  # a planner that samples leaves its trajectories in _solve
@@ -188,35 +191,24 @@ def moving_obstacle_velocity(moving, velocity, obstacle_model):
 
 
 def start_velocity(agent, heading):
-    """The robot's world-frame velocity (2,) before its first command: the car at its speed
-    along its heading, any other agent at rest."""
-    if agent.name == "dubins":
+    """The robot's world-frame velocity (2,) before its first command: an agent that steers
+    only at its speed along its heading, any other at rest."""
+    if agent.steers_only:
         return agent.max_speed * np.array([math.cos(heading), math.sin(heading)])
     return np.zeros(2)
 
 
-def world_velocity(agent, heading, u):
-    """The world-frame velocity (2,) and turn rate of controls u (nu,) at `heading`."""
-    if agent.name == "holonomic":
-        return np.array([u[0], u[1]]), float(u[2])
-    speed = agent.max_speed if agent.name == "dubins" else float(u[0])
-    return speed * np.array([math.cos(heading), math.sin(heading)]), float(u[-1])
-
-
 def track(agent, heading, velocity):
-    """Controls (nu,) that follow a desired world-frame velocity (2,): the holonomic agent
-    commands it; the unicycle and the car turn towards it at error / TURN_TAU (clipped to their
-    turn rate), the unicycle at the desired speed times the cosine of the heading error (0 when
-    facing away)."""
+    """Controls (nu,) that follow a desired world-frame velocity (2,): a holonomic agent
+    commands it (keeping its heading); the others turn towards it at error / TURN_TAU (clipped
+    to their turn rate) at the desired speed times the cosine of the heading error (0 when
+    facing away; an agent that steers only keeps its own)."""
     vx, vy = float(velocity[0]), float(velocity[1])
-    if agent.name == "holonomic":
-        return np.array([vx, vy, 0.0])
+    if agent.holonomic:
+        return agent.command((vx, vy), 0.0)
     speed = math.hypot(vx, vy)
     error = 0.0 if speed == 0.0 else wrap(math.atan2(vy, vx) - heading)
-    omega = error / TURN_TAU
-    if agent.name == "dubins":
-        return np.array([omega])
-    return np.array([speed * max(math.cos(error), 0.0), omega])
+    return agent.command((speed * max(math.cos(error), 0.0), 0.0), error / TURN_TAU)
 
 
 def wrap(angle):

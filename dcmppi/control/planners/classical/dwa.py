@@ -108,27 +108,28 @@ class DWA(Classical):
         self.steps = max(1, math.ceil(self.sim_time * self.agent.max_speed / linear_granularity))
 
     def window(self):
-        """The sampled velocities (S, 2): (v, omega) for the unicycle and the car, (u_x, u_y)
-        world-frame for the holonomic robot."""
+        """The sampled velocities (S, 2): (u_x, u_y) world-frame for a holonomic robot, else
+        (v, omega) (an agent that steers only: v its speed)."""
         a, dt = self.agent, self.dt
-        if a.name == "holonomic":
+        top = a.max_speed
+        if a.holonomic:
             axes = [
-                _span(c - self.acc_lim_x * dt, c + self.acc_lim_x * dt, -a.v_max, a.v_max,
+                _span(c - self.acc_lim_x * dt, c + self.acc_lim_x * dt, -top, top,
                       self.vx_samples)
                 for c in self.velocity
             ]  # fmt: skip
             grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 2)
-            inside = np.hypot(*grid.T) <= a.v_max * (1.0 + 1e-12)
+            inside = np.hypot(*grid.T) <= top * (1.0 + 1e-12)
             return grid[inside] if inside.any() else self.velocity[None].copy()
-        limit = a.upper[-1]
+        limit = a.omega_max
         w = self.omega
         omegas = _span(w - self.acc_lim_theta * dt, w + self.acc_lim_theta * dt, -limit, limit,
                        self.vtheta_samples)  # fmt: skip
-        if a.name == "dubins":
-            speeds = np.array([a.max_speed])
+        if a.steers_only:
+            speeds = np.array([top])
         else:
             v = float(np.hypot(*self.velocity))
-            speeds = _span(v - self.decel_lim_x * dt, v + self.acc_lim_x * dt, 0.0, a.v_max,
+            speeds = _span(v - self.decel_lim_x * dt, v + self.acc_lim_x * dt, 0.0, top,
                            self.vx_samples)  # fmt: skip
         return np.stack(np.meshgrid(speeds, omegas, indexing="ij"), axis=-1).reshape(-1, 2)
 
@@ -139,7 +140,7 @@ class DWA(Classical):
         fastest = float(np.max(np.hypot(*obs.moving_velocity.T), initial=0.0))
         static, moving, velocity = obs.near(reach + fastest * self.sim_time)
         bounds = np.array([-np.inf, -np.inf, np.inf, np.inf]) if obs.bounds is None else obs.bounds
-        holonomic = self.agent.name == "holonomic"
+        holonomic = self.agent.holonomic
         cost, hit, states = _evaluate(
             obs.state, samples, holonomic, self.steps, self.sim_time / self.steps,
             np.ascontiguousarray(static), np.ascontiguousarray(moving[:, :2]),
@@ -156,8 +157,8 @@ class DWA(Classical):
         self.legal = int(np.sum(hit > self.steps))
         u = samples[best]
         if holonomic:
-            return np.array([u[0], u[1], 0.0])
-        return np.array([u[1]]) if self.agent.name == "dubins" else u.copy()
+            return self.agent.command(u, 0.0)
+        return self.agent.command((u[0], 0.0), u[1])
 
 
 def _span(lo, hi, low, high, n):

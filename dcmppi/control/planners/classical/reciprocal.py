@@ -6,12 +6,13 @@ cylinders as discs, the moving obstacles as neighbours with their observed veloc
 base.moving_obstacle_velocity) and the map's edges as line obstacles (HRVO ignores lines, as
 for the pedestrians); it returns a feasible twist for the agent's kinematics:
 
-    holonomic   navground's OmnidirectionalKinematics (v_max, omega_max): the command is its
-                world-frame velocity, u_theta = 0 (the robot keeps its heading)
-    unicycle    navground's AheadKinematics (v_max, omega_max): forward speed and turn rate,
-                the heading following the velocity the behaviour wants
+    holonomic   navground's OmnidirectionalKinematics (max_speed, omega_max): the command is
+                its world-frame velocity, turn rate 0 (the robot keeps its heading)
+    others      navground's AheadKinematics (max_speed, omega_max): forward speed and turn
+                rate (the unicycle), the heading following the velocity the behaviour wants
 
-The car (dubins, a fixed speed) fits no navground kinematics and is refused. navground is
+An agent that steers only (the car, dubins: a fixed speed) fits no navground kinematics and is
+refused. navground is
 imported when the first such controller is made (`import dcmppi.control` does not load it);
 it computes in float32, deterministically.
 """
@@ -33,7 +34,7 @@ class Reciprocal(Classical):
     """A navground behaviour driving the holonomic or the unicycle robot (base of orca, hrvo,
     hl)."""
 
-    agents = ("holonomic", "unicycle")
+    needs_speed = True
     behavior = None  # navground's class name
 
     def _setup(self, safety_margin, horizon, settings):
@@ -49,15 +50,15 @@ class Reciprocal(Classical):
         self.horizon = positive("horizon", horizon)
         agent = self.agent
         kinematics = (
-            core.kinematics.OmnidirectionalKinematics(agent.v_max, agent.omega_max)
-            if agent.name == "holonomic"
-            else core.kinematics.AheadKinematics(agent.v_max, agent.omega_max)
+            core.kinematics.OmnidirectionalKinematics(agent.max_speed, agent.omega_max)
+            if agent.holonomic
+            else core.kinematics.AheadKinematics(agent.max_speed, agent.omega_max)
         )
         self._behavior = getattr(core.behaviors, self.behavior)(
             kinematics=kinematics, radius=self.robot_radius
         )
         b = self._behavior
-        b.optimal_speed = agent.v_max
+        b.optimal_speed = agent.max_speed
         b.safety_margin = self.safety_margin
         b.horizon = self.horizon
         for name, value in settings.items():
@@ -84,14 +85,14 @@ class Reciprocal(Classical):
         if self._walls is None or not np.array_equal(self._walls, walls):
             env.line_obstacles = [core.LineSegment(w[:2], w[2:]) for w in walls]
             self._walls = walls
-        frame = core.Frame.absolute if self.agent.name == "holonomic" else core.Frame.relative
+        holonomic = self.agent.holonomic
+        frame = core.Frame.absolute if holonomic else core.Frame.relative
         twist = b.compute_cmd(self.dt, frame, True)
         v, omega = np.asarray(twist.velocity, dtype=np.float64), float(twist.angular_speed)
         if not (np.isfinite(v).all() and np.isfinite(omega)):
             v, omega = np.zeros(2), 0.0  # a degenerate geometry: stand still
-        if self.agent.name == "holonomic":
-            return np.array([v[0], v[1], 0.0])
-        return np.array([v[0], omega])  # forward speed, turn rate
+        # the holonomic robot keeps its heading; the others take the forward speed, turn rate
+        return self.agent.command(v, 0.0 if holonomic else omega)
 
 
 @register("orca")

@@ -30,7 +30,7 @@ class SocialForce(Classical):
         its preferred speed, capped at 1.3 x it; the robot's cap is its top speed).
     """
 
-    agents = ("holonomic", "unicycle")  # a walker slows and sidesteps; the car can do neither
+    needs_speed = True  # a walker slows and sidesteps; the car can do neither
 
     def __init__(
         self,

@@ -21,9 +21,9 @@ from dcmppi.control import defaults
 from dcmppi.control.agents import Agent, agent_class, agent_names, make_agent
 from dcmppi.control.kernels.costs import valid_cylinders
 from dcmppi.control.kernels.projection import bound
-from dcmppi.control.planners.controller import observed_velocity, seed_param, state_and_goal
 from dcmppi.control.planners.diagnostics import Diagnostics
-from dcmppi.control.validation import floats, positive
+from dcmppi.control.planners.observations import observed_velocity, state_and_goal
+from dcmppi.control.validation import floats, positive, seed_param
 
 RANGE = 10.0  # [m] obstacles whose surface lies this far from the robot's are ignored
 TURN_TAU = 0.5  # [s] heading error -> turn rate (navground's default rotation_tau)

@@ -6,7 +6,7 @@ import json
 from dcmppi.bench.crowds import evaluation, training
 from dcmppi.cli.common import command
 from dcmppi.control.predictors import learned
-from dcmppi.tasks import recordings
+from dcmppi.tasks.replay import recordings
 
 
 def add_parser(subparsers, names: dict) -> None:

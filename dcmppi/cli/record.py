@@ -2,7 +2,7 @@
 columns: frame id x y), for `dcmppi predictor train --data FILE --period P`."""
 
 from dcmppi.cli.common import command, key_values
-from dcmppi.tasks import recordings
+from dcmppi.tasks.replay import recordings
 
 
 def add_parser(subparsers, names: dict) -> None:

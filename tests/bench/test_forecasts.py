@@ -15,7 +15,7 @@ from dcmppi.bench.crowds.evaluation import COLUMNS, evaluate, table
 from dcmppi.cli import common
 from dcmppi.cli import predictor as command
 from dcmppi.control.predictors import learned
-from dcmppi.tasks import recordings
+from dcmppi.tasks.replay import recordings
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 

@@ -14,7 +14,7 @@ from dcmppi.bench.episodes.runner import check_specs
 from dcmppi.bench.episodes.seeds import environment_seed
 from dcmppi.bench.experiments import Experiment, ExperimentError, load_experiment
 from dcmppi.control.predictors import learned
-from dcmppi.tasks import recordings
+from dcmppi.tasks.replay import recordings
 
 ETH_UCY = {
     "task": "replay",

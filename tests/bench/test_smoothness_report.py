@@ -15,7 +15,7 @@ from dcmppi.bench.reports.report import own_tracks, replay_table, smoothness_tab
 from dcmppi.bench.results.database import ADDED, SCHEMA_VERSION, ResultsDB
 from dcmppi.bench.results.stats import replay_scenes, smoothness
 from dcmppi.bench.runs.execution import run_experiment
-from dcmppi.tasks import recordings
+from dcmppi.tasks.replay import recordings
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 SMALL = {"K": 64, "N": 20}

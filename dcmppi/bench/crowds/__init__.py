@@ -14,7 +14,7 @@ ask for them, its forecasts against the recordings.
                          `evaluate` and its `table` (`dcmppi predictor eval`)
 
 The learned model itself (features, retrieval, fit) is dcmppi.control.predictors.learned; the
-ETH/UCY files are read by dcmppi.tasks.recordings. May import dcmppi.bench.episodes (the
+ETH/UCY files are read by dcmppi.tasks.replay.recordings. May import dcmppi.bench.episodes (the
 obstacles' own motion, the environments' seeds), dcmppi.control's predictors and dcmppi.tasks;
 experiments use the recipes.
 """

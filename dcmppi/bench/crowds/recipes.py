@@ -46,7 +46,7 @@ import sys
 
 from dcmppi.bench.crowds import recording, training
 from dcmppi.control.predictors import learned
-from dcmppi.tasks import recordings
+from dcmppi.tasks.replay import recordings
 
 MODELS_ENV = "DCMPPI_MODELS"  # environment variable naming the cache folder of trained models
 MODELS_DIR = "results/models"
@@ -72,7 +72,7 @@ RECORD_KEYS = {
 TRAINING_CODE = (
     "dcmppi.control.predictors.learned.model",
     "dcmppi.control.predictors.learned.training",
-    "dcmppi.tasks.recordings",
+    "dcmppi.tasks.replay.recordings",
     "dcmppi.bench.crowds.training",
     "dcmppi.bench.crowds.recipes",
 )

@@ -1,6 +1,6 @@
 """Simulated crowds recorded as ETH/UCY recordings: the moving obstacles of a task's episodes
-written in the four-column format (`dcmppi.tasks.recordings`), so that the `learned` predictor
-trains on them as on recorded people (`dcmppi record`, a model recipe's `record`).
+written in the four-column format (`dcmppi.tasks.replay.recordings`), so that the `learned`
+predictor trains on them as on recorded people (`dcmppi record`, a model recipe's `record`).
 
 The robot is absent: it is parked far away and still while the obstacles step by their own
 model (`dcmppi.bench.episodes.futures.obstacle_tracks`, what the true futures use), so the
@@ -22,7 +22,7 @@ import numpy as np
 from dcmppi import tasks
 from dcmppi.bench.episodes import futures
 from dcmppi.bench.episodes.seeds import environment_seed
-from dcmppi.tasks import recordings
+from dcmppi.tasks.replay import recordings
 
 WITH_PEDESTRIANS = ("square", "corridor", "crowd")  # named in errors: tasks with walkers
 

@@ -2,7 +2,7 @@
 recipe run. Deterministic: the same recordings, seed and window count give the same bytes."""
 
 from dcmppi.control.predictors import learned
-from dcmppi.tasks import recordings
+from dcmppi.tasks.replay import recordings
 
 
 def read(names, folder=None, period=recordings.PERIOD) -> list:

@@ -367,8 +367,8 @@ class Episode:
 
     def result(self) -> dict:
         """The metrics of the finished episode (see `run_episode`)."""
-        from dcmppi.tasks.barn import navigation_score
-        from dcmppi.tasks.world_base import GOAL_TOLERANCE
+        from dcmppi.tasks.worlds.barn import navigation_score
+        from dcmppi.tasks.worlds.base import GOAL_TOLERANCE
 
         path = self.path
         outcome = self.env.task.outcome
@@ -425,7 +425,7 @@ class Episode:
 
     def _blocked(self) -> bool:
         """Whether the task is `blocked` (one obstacle between start and goal)."""
-        from dcmppi.tasks.two_valley import Blocked
+        from dcmppi.tasks.worlds.two_valley import Blocked
 
         return isinstance(self.env.task, Blocked)
 
@@ -468,8 +468,8 @@ class Episode:
         human = getattr(self.env.task, "human", None)
         if human is None:
             return {}
-        from dcmppi.tasks.recordings import SCENES
         from dcmppi.tasks.replay import sampled_path_length
+        from dcmppi.tasks.replay.recordings import SCENES
 
         times = np.arange(len(path)) * self.env.control_timestep()
         scene = next((k for k, files in SCENES.items() if human.recording in files), None)

@@ -15,7 +15,7 @@ from collections import defaultdict
 import numpy as np
 
 from dcmppi.tasks import NOISE_PROFILES
-from dcmppi.tasks.world_base import GOAL_TOLERANCE
+from dcmppi.tasks.worlds.base import GOAL_TOLERANCE
 
 Z95 = 1.959963984540054
 BOOTSTRAP = 10_000  # resamples of a bootstrap interval

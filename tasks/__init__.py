@@ -9,19 +9,20 @@ others: v_max, omega_max) and `robot_radius`, the control-noise variances `Sigma
 process-noise stds `process_velocity_std` and `process_yaw_rate_std`, `time_limit` [s],
 `obstacle_measurement_std` [m] (noisy moving-obstacle positions, headings and velocities nan),
 plus its own kwargs; tasks with pedestrians (`crowd`, `corridor`, `square`) take `behavior`
-(one of pedestrians.BEHAVIORS) and `robot_visible`; `replay` puts the robot in a recorded crowd
-(`scene`, `path` or $DCMPPI_CROWDS, `episode`, `reactive`).
+(one of pedestrians.walkers.BEHAVIORS) and `robot_visible`; `replay` puts the robot in a
+recorded crowd (`scene`, `path` or $DCMPPI_CROWDS, `episode`, `reactive`).
 
-What lives here, the worlds as plain numpy: `world_base` (the `World` contract, the map,
-clearance, impossible worlds), `sampling` (starts, goals, discs), `worlds` (the forest and the
-crowd), `pedestrian_worlds` (the corridor, the square, walls), `arcs` (the crowd's Dubins
-motion), `pedestrians` (walkers: social force, ORCA, ...; the behaviours by name),
-`recordings` (the ETH/UCY files); in MuJoCo:
-`physics` (the plant `Physics`: obstacle slots, contacts, clearance), `navigation` (the task
-`Navigation` and `PedestrianNavigation`: physics timestep, noise profiles, termination), one
-module per task family (`forest`, `crowd`, `corridor`, `square`, `two_valley`, `layout`,
-`replay`, with the recorded people's motion), `robots` (agent -> actuators), `barn` (BARN's score);
-`_gl` picks MuJoCo's OpenGL backend before MuJoCo loads.
+    __init__.py    the suite: `load`, TASKS, the tagged registry
+    _gl.py         the OpenGL backend, chosen before MuJoCo loads
+    physics.py     the plant `Physics`: obstacle slots, contacts, clearance
+    navigation.py  the task `Navigation`: physics timestep, noise profiles, termination
+    robots.py      agent -> actuators of the robot's MJCF model
+    worlds/        the `World` contract, sampling, the paper's forest and crowd, the Dubins
+                   arcs; the tasks forest, blocked, crossing, layout, and BARN's score
+    pedestrians/   the walkers' behaviours, the corridor's and square's worlds; the tasks
+                   corridor, square and crowd on one base
+    replay/        the ETH/UCY recordings, their scenes and episodes, the recorded people's
+                   motion; the task replay
 
 May import MuJoCo, dm_control, numpy, navground and, of the rest of dcmppi, only the robot
 models dcmppi.control.agents (with dcmppi.control.kernels.dynamics, their motion), the social
@@ -41,15 +42,15 @@ from dm_control.utils import containers  # noqa: E402
 
 from dcmppi.control.agents import agent_param_names  # noqa: E402
 
-from .corridor import Corridor  # noqa: E402
-from .crowd import Crowd  # noqa: E402
-from .forest import Forest  # noqa: E402
-from .layout import Layout  # noqa: E402
 from .navigation import NOISE_PROFILES, Navigation, make_environment  # noqa: E402
+from .pedestrians.corridor import Corridor  # noqa: E402
+from .pedestrians.crowd import Crowd  # noqa: E402
+from .pedestrians.square import Square  # noqa: E402
 from .physics import Physics  # noqa: E402
-from .replay import Replay  # noqa: E402
-from .square import Square  # noqa: E402
-from .two_valley import Blocked, Crossing  # noqa: E402
+from .replay.task import Replay  # noqa: E402
+from .worlds.forest import Forest  # noqa: E402
+from .worlds.layout import Layout  # noqa: E402
+from .worlds.two_valley import Blocked, Crossing  # noqa: E402
 
 SUITE = containers.TaggedTasks()
 

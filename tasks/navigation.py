@@ -1,9 +1,10 @@
 """The shared task of every benchmark world: drive a robot among cylinders to its goal.
 
-`Navigation` is the dm_control task: it draws a `world_base.World` per episode, maps the
+`Navigation` is the dm_control task: it draws a `worlds.base.World` per episode, maps the
 agent's controls to the actuators of the plant (physics.Physics), injects noise, and ends the
 episode at the goal, on a collision, when the robot leaves the map, or at the time limit.
-Subclasses only say how a world is drawn; `PedestrianNavigation` is the corridor's and the square's.
+Subclasses only say how a world is drawn (those whose moving obstacles may walk through
+pedestrians.base.PedestrianNavigation).
 """
 
 import collections
@@ -16,18 +17,18 @@ from dm_env import specs
 from dcmppi.control import defaults
 from dcmppi.control.agents import make_agent
 from dcmppi.control.kernels.projection import bound
-from dcmppi.control.validation import flag, positive
+from dcmppi.control.validation import positive
 
-from . import pedestrians, robots
+from . import robots
 from .physics import Physics
-from .sampling import random_points
-from .world_base import (
+from .worlds.base import (
     GOAL_TOLERANCE,
     World,
     default_time_limit,
     impossible,
 )
-from .world_base import map_bounds as map_bounds_of
+from .worlds.base import map_bounds as map_bounds_of
+from .worlds.sampling import random_points
 
 PHYSICS_TIMESTEP = 0.01  # [s] MuJoCo timestep: 10 substeps per control step (defaults.DT)
 # Noise profiles of the experiments (docs/design.md, Experiments).
@@ -36,7 +37,6 @@ CONTROL_NOISE = 0.1  # variance of the control noise on every control, in its ow
 PROCESS_VELOCITY_STD = 0.1  # [m/s] std of the planar velocity disturbance, per axis
 PROCESS_YAW_RATE_STD = 0.1  # [rad/s] std of the yaw-rate disturbance
 MEASUREMENT_STREAM = 1  # spawn key of the measurement-noise stream under the noise seed
-PEDESTRIAN_TIME_FACTOR = 5.0  # pedestrian tasks: time limit / time to drive the map's longer side
 
 
 # A dm_control.rl.control.Task, not dm_control.suite's base.Task: importing dm_control.suite
@@ -298,36 +298,6 @@ class Navigation(control.Task):
         return collections.OrderedDict(
             (name, specs.Array(shape, np.float64, name=name)) for name, shape in shapes.items()
         )
-
-
-class PedestrianNavigation(Navigation):
-    """Navigation among pedestrians that walk to goals (the corridor and the square).
-
-    `behavior` is how they walk, one of pedestrians.WALKING; `robot_visible`: whether they react
-    to the robot (default False, as CrowdNav++). The robot is the `holonomic` agent by default.
-    Time limit: by default PEDESTRIAN_TIME_FACTOR x the time to drive the map's longer side at
-    the agent's top speed, room to wait for a gap and to detour, while an episode stuck behind
-    pedestrians still ends.
-    """
-
-    default_agent = "holonomic"
-
-    def __init__(self, n_pedestrians, pedestrian_radius, behavior, robot_visible, **kwargs):
-        n_pedestrians = positive("n_pedestrians", n_pedestrians, integer=True, allow_zero=True)
-        pedestrians.walking(behavior)
-        self.behavior = behavior
-        self.robot_visible = flag("robot_visible", robot_visible)
-        self.pedestrian_radius = positive("pedestrian_radius", pedestrian_radius)
-        super().__init__(**kwargs)
-        self.num_moving = n_pedestrians
-
-    @property
-    def time_limit(self) -> float:
-        if self._time_limit is not None:
-            return self._time_limit
-        xmin, ymin, xmax, ymax = self.map_bounds
-        longer = max(xmax - xmin, ymax - ymin)
-        return PEDESTRIAN_TIME_FACTOR * longer / self.agent.max_speed
 
 
 def make_environment(task: Navigation, environment_kwargs=None) -> control.Environment:

@@ -2,10 +2,10 @@
 
 `Physics` owns the MuJoCo model (models/arena.xml with one robot of models/robots/ and a fixed
 number of obstacle slots), moves the moving obstacles every physics substep (Dubins arcs,
-arcs.DubinsObstacles, for the "constant" behaviour, else `pedestrians.Pedestrians`, or a task's
-own motion such as replay.RecordedPeople), and records robot-obstacle contacts and the analytic
-clearance; walls are rows of static cylinders
-(pedestrian_worlds.wall_cylinders). The task that drives it is navigation.Navigation.
+worlds.arcs.DubinsObstacles, for the "constant" behaviour, else `pedestrians.walkers.Pedestrians`,
+or a task's own motion such as replay.people.RecordedPeople), and records robot-obstacle
+contacts and the analytic clearance; walls are rows of static cylinders
+(pedestrians.worlds.wall_cylinders). The task that drives it is navigation.Navigation.
 """
 
 import copy
@@ -25,9 +25,9 @@ from dm_control.rl import control
 from dcmppi.control import defaults
 from dcmppi.control.kernels.libm import cabs, cabs_or_nan, nan_min
 
-from . import pedestrians
-from .arcs import DubinsObstacles
-from .world_base import BEHAVIOR_CONSTANT, GOAL_TOLERANCE, World
+from .pedestrians import walkers
+from .worlds.arcs import DubinsObstacles
+from .worlds.base import BEHAVIOR_CONSTANT, GOAL_TOLERANCE, World
 
 OBSTACLE_HALF_HEIGHT = 0.5  # [m]
 PARKED = -1000.0  # [m] x, y of unused static slots (also disabled and hidden)
@@ -265,13 +265,13 @@ class Physics(dm_mujoco.Physics):
         velocity: the robot's world-frame (vx, vy, yaw rate) at the start; command: the three
         actuator targets at the start; top_speed: the robot's fastest planar speed [m/s].
         Pedestrian worlds (behavior not "constant") also need next_goal(random, i, position)
-        and random (np.random.RandomState), see `pedestrians.Pedestrians`.
+        and random (np.random.RandomState), see `walkers.Pedestrians`.
         motion: the moving obstacles' own motion instead of the world's behaviour, or None. It
         has advance(n, robot_xy, robot_velocity) -> complex (n, L) (as `Pedestrians`), z,
         theta, velocity, max_speed [m/s], radius (L,) each row's disc and present (L,) bool:
         a row that is not present holds no obstacle now (radius 0 in `moving_obstacles`, and
         the motion parks it far away, so it touches nothing); world.moving is its state at
-        t = 0 (replay.RecordedPeople: rows that recorded people come and go by)."""
+        t = 0 (replay.people.RecordedPeople: rows that recorded people come and go by)."""
         m = self._m
         static = world.static
         solid = static[:, 2] > 0
@@ -308,7 +308,7 @@ class Physics(dm_mujoco.Physics):
             heading = np.column_stack([np.cos(moving[:, 2]), np.sin(moving[:, 2])])
             # They walk in the map and along its walls (the corridor's reach past its ends).
             corners = np.concatenate([world.map_bounds.reshape(2, 2), world.walls.reshape(-1, 2)])
-            self._moving = pedestrians.Pedestrians(
+            self._moving = walkers.Pedestrians(
                 world.behavior,
                 moving[:, :2],
                 world.moving_speed[:, None] * heading,
@@ -323,7 +323,7 @@ class Physics(dm_mujoco.Physics):
                 random,
                 self.control_period,
             )
-            obstacle_speed = pedestrians.MAX_SPEED_FACTOR * world.moving_pref_speed.max()
+            obstacle_speed = walkers.MAX_SPEED_FACTOR * world.moving_pref_speed.max()
         elif len(moving):
             self._moving = DubinsObstacles(
                 moving[:, :3],
@@ -487,7 +487,7 @@ class Physics(dm_mujoco.Physics):
 
     @property
     def obstacle_motion(self):
-        """The moving obstacles' own model (pedestrians.Pedestrians, arcs.DubinsObstacles or
+        """The moving obstacles' own model (walkers.Pedestrians, DubinsObstacles or
         set_world's motion; None without any). Its `advance` moves them without the physics:
         where they ignore the robot, stepping it alone gives the episode's future of them."""
         return self._moving

@@ -72,11 +72,13 @@ def test_the_build_and_the_linter_are_pinned_as_ci_needs():
 
 
 def test_every_package_folder_is_installed():
-    """A wheel ships only the packages pyproject lists: each folder of dcmppi/ with an
-    __init__.py must be among them."""
-    packages = set(PYPROJECT["tool"]["setuptools"]["packages"])
-    found = {
-        ".".join(init.parent.relative_to(ROOT).parts)
-        for init in (ROOT / "dcmppi").rglob("__init__.py")
-    }
+    """A wheel ships only the packages pyproject lists: each folder with an __init__.py of
+    dcmppi/ and of the top-level folders it maps (tasks/, models/) must be among them."""
+    setuptools = PYPROJECT["tool"]["setuptools"]
+    packages = set(setuptools["packages"])
+    found = set()
+    for package, folder in setuptools["package-dir"].items():
+        for init in (ROOT / folder).rglob("__init__.py"):
+            found.add(".".join([package, *init.parent.relative_to(ROOT / folder).parts]))
+    assert "dcmppi.tasks.replay" in found and "dcmppi.bench.crowds" in found
     assert found - packages == set(), f"add to [tool.setuptools] packages: {found - packages}"

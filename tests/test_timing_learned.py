@@ -2,7 +2,7 @@
 
 import json
 
-from dcmppi.bench.experiments import models
+from dcmppi.bench.crowds import recipes as models
 from dcmppi.bench.timing import cases
 
 

@@ -9,13 +9,14 @@
 (tests/test_architecture.py):
 
     episodes/        one episode: runner, plugins (users' controllers), metrics, futures,
-                     reachability, snapshot (one step of every controller)
+                     reachability, snapshot (one step of every controller), seeds
+    crowds/          the learned predictor's crowds: recorded simulations, model training and
+                     recipes, forecasts of recorded people (`dcmppi record`, `dcmppi predictor`)
     experiments/     the TOML definitions of experiments and their checks
     results/         the SQLite database, provenance, statistics
     runs/            many episodes into a database (processes or Ray), replay, the gallery
     reports/         tables, CSV, plots, `dcmppi outcomes`
     timing/          `dcmppi timing`: speed, profiles, fingerprints, the pytorch_mppi peer
-    forecasts/       predictors' forecasts of recorded people (`dcmppi predictor eval`)
     api              `run` and `load`: the benchmark from Python
 
 May import dcmppi.control, dcmppi.tasks and dcmppi.render. Nothing in dcmppi.control,

@@ -3,11 +3,10 @@ eval` (the standard ETH/UCY forecast protocol)."""
 
 import json
 
-from dcmppi.bench.experiments import models
-from dcmppi.bench.forecasts import evaluation
+from dcmppi.bench.crowds import evaluation, training
 from dcmppi.cli.common import command
 from dcmppi.control.predictors import learned
-from dcmppi.tasks import recordings
+from dcmppi.tasks.replay import recordings
 
 
 def add_parser(subparsers, names: dict) -> None:
@@ -89,8 +88,8 @@ def run(args) -> int:
 
 def train(args) -> int:
     names = recordings.train_files(args.leave_out) if args.leave_out else args.data
-    data = [recordings.load(n, args.folder, args.period) for n in names]
-    model = models.train(data, args.out, args.seed, args.max_windows)
+    data = training.read(names, args.folder, args.period)
+    model = training.train(data, args.out, args.seed, args.max_windows)
     print(
         f"{args.out}: {len(model.features)} windows of {len(names)} files, shrink "
         f"{model.shrink:.2f}, sha256 {learned.sha256(args.out)}"

@@ -2,7 +2,7 @@
 columns: frame id x y), for `dcmppi predictor train --data FILE --period P`."""
 
 from dcmppi.cli.common import command, key_values
-from dcmppi.tasks import recordings
+from dcmppi.tasks.replay import recordings
 
 
 def add_parser(subparsers, names: dict) -> None:
@@ -35,15 +35,13 @@ def add_parser(subparsers, names: dict) -> None:
 
 def run(args) -> int:
     """Runs `dcmppi record`; returns the exit status."""
-    from dcmppi.bench.experiments import crowds
+    from dcmppi.bench.crowds.recording import record
 
     for pair in args.task_param or ():
         if pair.partition("=")[0] in ("random", "noise"):
             raise ValueError(f"--task-param {pair}: set per episode; choose them by --base-seed")
     params = key_values(args.task_param, "--task-param")
-    recording = crowds.record(
-        args.task, params, args.episodes, args.base_seed, args.period, args.seconds
-    )
+    recording = record(args.task, params, args.episodes, args.base_seed, args.period, args.seconds)
     recordings.save(recording, args.out)
     frames = sum(len(t.frames) for t in recording.tracks)
     print(

@@ -2,7 +2,7 @@
 the plants of dcmppi.tasks share.
 
 The world's numbers (map size, crowd ranges, physics timestep, goal tolerance, noise profiles)
-belong to the tasks (dcmppi.tasks: world_base, worlds, pedestrian_worlds, navigation).
+belong to the tasks (dcmppi.tasks: worlds.base, worlds.paper, pedestrians.worlds, navigation).
 Paper values are marked (paper); the rest are choices the paper leaves open.
 Names follow the paper: K samples, N horizon steps, lambda_, Sigma, alpha, beta, P.
 """

@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 from scipy.stats import gaussian_kde
 
-from dcmppi.bench.forecasts import evaluate, forecasters, metrics, table
-from dcmppi.bench.forecasts.evaluation import COLUMNS
+from dcmppi.bench.crowds import forecast_metrics, forecasters
+from dcmppi.bench.crowds.evaluation import COLUMNS, evaluate, table
 from dcmppi.cli import common
 from dcmppi.cli import predictor as command
 from dcmppi.control.predictors import learned
-from dcmppi.tasks import recordings
+from dcmppi.tasks.replay import recordings
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -40,7 +40,7 @@ def walkers(tmp_path, name="walk.txt"):
 def test_constant_velocity_forecasts_a_straight_walker_exactly(tmp_path):
     w = recordings.windows(recordings.load(walkers(tmp_path), period=0.4))
     samples, point = forecasters.constant_velocity(w)
-    scores = metrics.displacement(samples, w.future, point)
+    scores = forecast_metrics.displacement(samples, w.future, point)
     assert len(w) == 2 * 11
     for column in ("ade", "fde", "min_ade", "min_fde"):
         np.testing.assert_allclose(scores[column], 0.0, atol=1e-12)
@@ -60,7 +60,7 @@ def test_best_of_takes_the_best_sample_and_the_point_forecast_scores_alone():
     samples[0, 1, :, 0] = [0.0, 0.0, 3.0]  # ADE 1, FDE 3
     samples[0, 1, :, 1] = [0.0, 0.0, 0.0]
     point = np.full((1, 3, 2), [0.0, 2.0])
-    scores = metrics.displacement(samples, truth, point)
+    scores = forecast_metrics.displacement(samples, truth, point)
     assert scores["ade"][0] == pytest.approx(2.0) and scores["fde"][0] == pytest.approx(2.0)
     assert scores["min_ade"][0] == pytest.approx(1.0) and scores["min_fde"][0] == pytest.approx(1.0)
 
@@ -69,10 +69,11 @@ def test_the_kde_is_scipys_gaussian_kde_with_scotts_bandwidth(monkeypatch):
     rng = np.random.default_rng(3)
     points = rng.normal(size=(20, 2)) * [1.0, 2.0] + [0.5, 0.0]
     where = rng.normal(size=(6, 2))
-    monkeypatch.setattr(metrics, "BANDWIDTH_FLOOR", 0.0)
-    h = metrics.bandwidth(points[None])
+    monkeypatch.setattr(forecast_metrics, "BANDWIDTH_FLOOR", 0.0)
+    h = forecast_metrics.bandwidth(points[None])
     np.testing.assert_allclose(
-        metrics.log_density(points[None], h, where[None])[0], gaussian_kde(points.T).logpdf(where.T)
+        forecast_metrics.log_density(points[None], h, where[None])[0],
+        gaussian_kde(points.T).logpdf(where.T),
     )
 
 
@@ -81,11 +82,11 @@ def test_coverage_of_a_calibrated_forecast_is_near_90_percent_and_sharper_is_lik
     M, P, T = 400, 20, 3
     truth = rng.normal(size=(M, T, 2))
     calibrated = rng.normal(size=(M, P, T, 2))
-    scores = metrics.kde_scores(calibrated, truth)
+    scores = forecast_metrics.kde_scores(calibrated, truth)
     assert 0.85 < scores["coverage"].mean() < 0.95
-    wide = metrics.kde_scores(3 * calibrated, truth)
+    wide = forecast_metrics.kde_scores(3 * calibrated, truth)
     assert wide["coverage"].mean() > 0.99 and wide["nll"].mean() > scores["nll"].mean()
-    narrow = metrics.kde_scores(0.3 * calibrated, truth)
+    narrow = forecast_metrics.kde_scores(0.3 * calibrated, truth)
     assert narrow["coverage"].mean() < 0.6 and narrow["nll"].mean() > scores["nll"].mean()
 
 
@@ -103,7 +104,7 @@ def test_the_project_predictors_forecast_through_their_interface(tmp_path):
         samples, point = f(sub, np.random.default_rng(0))
         assert samples.shape == (3, 20, 12, 2)
         np.testing.assert_allclose(point, samples.mean(axis=1))
-        assert metrics.displacement(samples, truth, point)["ade"].max() < bound, name
+        assert forecast_metrics.displacement(samples, truth, point)["ade"].max() < bound, name
         if name == "learned":  # tracked by position, as the model sees the annotated tracks
             tracks = forecasters.learned_tracks(model)(sub)
             np.testing.assert_allclose(samples, tracks[0], atol=1e-12)

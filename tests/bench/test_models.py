@@ -1,6 +1,6 @@
-"""Model recipes (dcmppi.bench.experiments.models): placeholders resolved per environment, the
+"""Model recipes (dcmppi.bench.crowds.recipes): placeholders resolved per environment, the
 file trained on first use by the train command's code and cached, the clear error lines; and
-`dcmppi record` (dcmppi.bench.experiments.crowds): simulated crowds as ETH/UCY files."""
+`dcmppi record` (dcmppi.bench.crowds.recording): simulated crowds as ETH/UCY files."""
 
 import dataclasses
 import json
@@ -9,17 +9,12 @@ import numpy as np
 import pytest
 
 from dcmppi import cli
+from dcmppi.bench.crowds import recipes, recording
 from dcmppi.bench.episodes.runner import check_specs
-from dcmppi.bench.experiments import (
-    Experiment,
-    ExperimentError,
-    crowds,
-    environment_seed,
-    load_experiment,
-    models,
-)
+from dcmppi.bench.episodes.seeds import environment_seed
+from dcmppi.bench.experiments import Experiment, ExperimentError, load_experiment
 from dcmppi.control.predictors import learned
-from dcmppi.tasks import recordings
+from dcmppi.tasks.replay import recordings
 
 ETH_UCY = {
     "task": "replay",
@@ -41,7 +36,7 @@ ETH_UCY = {
 def cache(tmp_path, monkeypatch):
     """Models trained into a folder of the test's own; no $DCMPPI_CROWDS."""
     folder = tmp_path / "models"
-    monkeypatch.setenv(models.MODELS_ENV, str(folder))
+    monkeypatch.setenv(recipes.MODELS_ENV, str(folder))
     monkeypatch.delenv(recordings.CROWDS_ENV, raising=False)
     return folder
 
@@ -176,7 +171,7 @@ def test_record_writes_eth_ucy_files_that_train(tmp_path, capsys):
     assert cli.main(argv) == 0
     assert "14 people" in capsys.readouterr().out
     read = recordings.load(out, period=0.4)
-    made = crowds.record("square", {"behavior": "orca"}, 2, 5, 0.4, 10.0)
+    made = recording.record("square", {"behavior": "orca"}, 2, 5, 0.4, 10.0)
     assert [t.id for t in read.tracks] == [t.id for t in made.tracks] == list(range(1, 15))
     for a, b in zip(read.tracks, made.tracks, strict=True):
         np.testing.assert_array_equal(a.frames, b.frames)
@@ -190,7 +185,7 @@ def test_record_writes_eth_ucy_files_that_train(tmp_path, capsys):
     again = tmp_path / "again.txt"
     assert cli.main([*argv[:-1], str(again)]) == 0
     assert again.read_bytes() == out.read_bytes()
-    other = crowds.record("square", {"behavior": "orca"}, 2, 6, 0.4, 10.0)
+    other = recording.record("square", {"behavior": "orca"}, 2, 6, 0.4, 10.0)
     assert not np.allclose(other.tracks[0].xy, made.tracks[0].xy)
     model = tmp_path / "m.npz"
     assert cli.main(["predictor", "train", "--data", str(out), "--out", str(model)]) == 0

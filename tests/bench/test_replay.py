@@ -89,7 +89,7 @@ def test_every_task_replays_exactly(tmp_path):
     assert set(TASK_PARAMS) == set(tasks.TASKS)
     for task in tasks.TASKS:
         if task == "replay" and not CROWDS.is_dir():
-            continue  # the recordings are absent: tests/tasks/test_replay.py says so
+            continue  # the recordings are absent: tests/tasks/test_replay_task.py says so
         db = tmp_path / f"{task}.db"
         record(db, task)
         r = rp.replay([db], "mppi", 0)

@@ -16,7 +16,7 @@ from dcmppi.bench.results.database import ADDED, SCHEMA_VERSION, ResultsDB
 from dcmppi.bench.results.stats import replay_scenes, smoothness
 from dcmppi.bench.runs.execution import run_experiment
 from dcmppi.control.defaults import DT
-from dcmppi.tasks import recordings
+from dcmppi.tasks.replay import recordings
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 SMALL = {"K": 64, "N": 20}

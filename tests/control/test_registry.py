@@ -10,7 +10,7 @@ from dcmppi.control.agents.base import AGENTS
 from dcmppi.control.planners.registry import CONTROLLERS
 from dcmppi.control.predictors.base import PREDICTORS
 from dcmppi.control.registry import Registry
-from dcmppi.tasks import pedestrians
+from dcmppi.tasks.pedestrians import walkers
 
 
 def test_names_are_sorted_whatever_the_order_of_registration():
@@ -37,7 +37,7 @@ def test_an_unknown_name_is_one_line_naming_it_the_kind_and_the_known_names():
         (CONTROLLERS, "controller"),
         (AGENTS, "agent"),
         (PREDICTORS, "predictor"),
-        (pedestrians.BEHAVIOR, "pedestrian behaviour"),
+        (walkers.BEHAVIOR, "pedestrian behaviour"),
     ],
 )
 def test_every_registry_names_its_kind_and_its_entries(registry, kind):

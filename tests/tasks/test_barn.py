@@ -14,7 +14,7 @@ from dcmppi.bench.reports.report import score_table, write_report
 from dcmppi.bench.results.database import SCHEMA_VERSION, ResultsDB
 from dcmppi.bench.results.stats import bootstrap_mean, paired_scores, summarize
 from dcmppi.bench.runs.execution import run_experiment
-from dcmppi.tasks import barn, layout
+from dcmppi.tasks.worlds import barn, layout
 
 BARN = pathlib.Path(__file__).parent / "data" / "barn_worlds_0_1.csv"
 BOUNDS = (-2.0, -4.0, 12.0, 4.0)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from dcmppi import tasks
-from dcmppi.tasks import layout
+from dcmppi.tasks.worlds import layout
 
 BARN = pathlib.Path(__file__).parent / "data" / "barn_worlds_0_1.csv"
 

@@ -4,20 +4,17 @@ import numpy as np
 import pytest
 
 from dcmppi import tasks
-from dcmppi.tasks import (
-    arcs,
-    navigation,
-    pedestrian_worlds,
-    pedestrians,
-    sampling,
-    world_base,
-    worlds,
-)
+from dcmppi.tasks import navigation
+from dcmppi.tasks.pedestrians import base as pedestrian_base
+from dcmppi.tasks.pedestrians import walkers
+from dcmppi.tasks.pedestrians import worlds as pedestrian_worlds
+from dcmppi.tasks.worlds import arcs, paper, sampling
+from dcmppi.tasks.worlds import base as world_base
 
 GENERATORS = {
     "corridor": pedestrian_worlds.generate_corridor,
     "square": pedestrian_worlds.generate_square,
-    "crowd": lambda random: worlds.generate_crowd(random, behavior="orca"),
+    "crowd": lambda random: paper.generate_crowd(random, behavior="orca"),
 }
 
 
@@ -127,8 +124,8 @@ def test_square_start_and_goal_on_opposite_sides_pedestrians_apart():
 
 
 def test_a_walking_crowd_keeps_the_constant_crowds_draws_where_they_do_not_overlap():
-    constant = worlds.generate_crowd(np.random.RandomState(2))
-    walking = worlds.generate_crowd(np.random.RandomState(2), behavior="social_force")
+    constant = paper.generate_crowd(np.random.RandomState(2))
+    walking = paper.generate_crowd(np.random.RandomState(2), behavior="social_force")
     np.testing.assert_array_equal(constant.start, walking.start)
     np.testing.assert_array_equal(constant.moving_speed, walking.moving_speed)
     np.testing.assert_array_equal(walking.moving_pref_speed, walking.moving_speed)
@@ -175,7 +172,7 @@ def test_bad_pedestrian_kwargs_name_the_problem(name, kwargs, message):
 
 
 def test_every_walking_behavior_is_valid_in_the_tasks():
-    walking = pedestrians.WALKING
+    walking = walkers.WALKING
     assert {"social_force", "orca"} <= set(walking)
     for behavior in walking:
         assert tasks.load("corridor", {"behavior": behavior}).task.behavior == behavior
@@ -188,11 +185,11 @@ def test_task_defaults_robot_and_time_limit():
     assert corridor.agent.name == "holonomic" and corridor.agent.max_speed == 1.5
     assert corridor.robot_radius == 0.3 and corridor.behavior == "social_force"
     assert corridor.num_moving == 12 and not corridor.robot_visible
-    assert corridor.time_limit == pytest.approx(navigation.PEDESTRIAN_TIME_FACTOR * 20.0 / 1.5)
+    assert corridor.time_limit == pytest.approx(pedestrian_base.TIME_FACTOR * 20.0 / 1.5)
     square = tasks.load("square").task
     assert square.agent.name == "holonomic" and square.agent.max_speed == 1.0
     assert square.robot_radius == 0.3 and square.behavior == "orca" and square.num_moving == 7
-    assert square.time_limit == pytest.approx(navigation.PEDESTRIAN_TIME_FACTOR * 8.0 / 1.0)
+    assert square.time_limit == pytest.approx(pedestrian_base.TIME_FACTOR * 8.0 / 1.0)
     assert tasks.load("square", {"v_max": 2.0}).task.agent.max_speed == 2.0
     assert tasks.load("square", {"agent": "dubins"}).task.agent.max_speed == 1.0
     assert tasks.load("corridor", {"time_limit": 9.0}).task.time_limit == 9.0
@@ -210,8 +207,8 @@ def test_corridor_pedestrians_walk_toward_their_goals_and_are_observed_exactly()
         ts = env.step([0.0, 0.0, 0.0])
     assert env.task.outcome is None
     obs = ts.observation
-    walkers = env.physics._moving
-    arrived = (walkers.goal != world.moving_goal).any(axis=1)
+    people = env.physics._moving
+    arrived = (people.goal != world.moving_goal).any(axis=1)
     assert 0 < arrived.sum() < len(arrived)
     # those that arrived walk again from their start end ...
     start_x, _ = pedestrian_worlds.corridor_ends(world.moving_goal[:, 0] < 0)
@@ -222,10 +219,10 @@ def test_corridor_pedestrians_walk_toward_their_goals_and_are_observed_exactly()
     along = ((moved * to_goal).sum(axis=1) / np.hypot(*to_goal.T))[~arrived]
     pref_speed = world.moving_pref_speed[~arrived]
     assert (along > 0.5 * 2.0 * pref_speed).all()
-    assert (along <= 2.0 * pedestrians.MAX_SPEED_FACTOR * pref_speed).all()
-    np.testing.assert_array_equal(obs["moving_velocity"], walkers.velocity)
-    np.testing.assert_allclose(obs["moving_obstacles"][:, 0], walkers.z.real)
-    heading = np.arctan2(walkers.velocity[:, 1], walkers.velocity[:, 0])
+    assert (along <= 2.0 * walkers.MAX_SPEED_FACTOR * pref_speed).all()
+    np.testing.assert_array_equal(obs["moving_velocity"], people.velocity)
+    np.testing.assert_allclose(obs["moving_obstacles"][:, 0], people.z.real)
+    heading = np.arctan2(people.velocity[:, 1], people.velocity[:, 0])
     np.testing.assert_allclose(np.cos(obs["moving_obstacles"][:, 2] - heading), 1.0)
     # a noisy tracker sees positions only
     noisy = tasks.load("corridor", {"random": 1, "obstacle_measurement_std": 0.1})
@@ -320,9 +317,9 @@ def test_a_walking_crowd_runs_and_stays_deterministic(behavior):
 def test_a_pedestrian_reappearing_on_the_robot_collides_in_that_step(monkeypatch):
     env = tasks.load("corridor", {"random": 0, "n_pedestrians": 2})
     ts = env.reset()
-    walkers = env.physics._moving
+    people = env.physics._moving
     robot = ts.observation["robot_pose"][:2]
-    walkers.goal[0] = [walkers.z[0].real, walkers.z[0].imag]  # arrives now ...
+    people.goal[0] = [people.z[0].real, people.z[0].imag]  # arrives now ...
     # ... and reappears touching the robot (the task's own respawns are outside the map)
     monkeypatch.setattr(
         env.task, "next_goal", lambda random, i, position: (robot + [0.4, 0.0], robot)

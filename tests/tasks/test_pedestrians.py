@@ -5,14 +5,14 @@ import numpy as np
 import pytest
 
 from dcmppi.control.kernels import social
-from dcmppi.tasks import pedestrians
-from dcmppi.tasks.pedestrians import MAX_SPEED_FACTOR, Pedestrians
+from dcmppi.tasks.pedestrians import walkers
+from dcmppi.tasks.pedestrians.walkers import MAX_SPEED_FACTOR, Pedestrians
 
 pytest.importorskip("navground.core")
 
 R = 0.3  # pedestrian radius [m]
 DT = 0.1
-WALKING = pedestrians.WALKING
+WALKING = walkers.WALKING
 AVOIDING = ("orca", "hrvo", "hl")  # navground's: no overlaps
 CORRIDOR = np.array([[-5.0, 0.0, 25.0, 0.0], [-5.0, 3.0, 25.0, 3.0]])
 

@@ -6,7 +6,7 @@ import pathlib
 import numpy as np
 import pytest
 
-from dcmppi.tasks import recordings
+from dcmppi.tasks.replay import recordings
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 

@@ -9,7 +9,8 @@ import pytest
 from dcmppi import tasks
 from dcmppi.bench.episodes.reachability import reach
 from dcmppi.bench.episodes.runner import EpisodeSpec, TrueFutures, run_episode
-from dcmppi.tasks import recordings, replay
+from dcmppi.tasks.replay import people, recordings, scenes
+from dcmppi.tasks.replay import task as replay_task
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 WALK = [(10 * k, 1, 0.4 * k, 0.0) for k in range(21)]  # person 1: 8 m along +x at 1 m/s
@@ -35,7 +36,7 @@ def scene_file(tmp_path, *people, name="walk"):
 
 def episode_of(path, person):
     """The index of the episode of `path` that replaces `person`."""
-    scene = replay.load_scene(replay.scene_files(path))
+    scene = scenes.load_scene(scenes.scene_files(path))
     ids = [scene.recordings[r].tracks[i].id for r, i in scene.episodes]
     return ids.index(person)
 
@@ -66,7 +67,7 @@ def test_people_move_linearly_between_frames_and_are_absent_outside_their_track(
         moving = obs["moving_obstacles"]
         if 2 in ids and t > 2.0 + 1e-9:
             np.testing.assert_allclose(moving[row, :2], xy[list(ids).index(2)], atol=1e-12)
-            assert moving[row, 3] == replay.PEDESTRIAN_RADIUS
+            assert moving[row, 3] == people.PEDESTRIAN_RADIUS
             np.testing.assert_allclose(obs["moving_velocity"][row], [0.0, -1.0], atol=1e-12)
         elif t < 2.0 - 1e-9:  # before its first frame: a padding row, parked, still
             assert moving[row, 3] == 0 and moving[row, 0] < -100
@@ -94,16 +95,16 @@ def test_a_person_who_left_frees_the_row_for_the_next_after_a_padding_instant(tm
 def test_episodes_are_people_who_walk_far_enough_and_meet_someone(tmp_path):
     short = [(10 * k, 5, 4.0, 1.0 + 0.1 * k) for k in range(10)]  # 0.9 m, meets 1 and 2
     alone = [(10 * k, 6, 50.0 + 0.5 * k, 50.0) for k in range(30)]  # 14.5 m, meets no one
-    scene = replay.load_scene(replay.scene_files(scene_file(tmp_path, WALK, CROSS, short, alone)))
+    scene = scenes.load_scene(scenes.scene_files(scene_file(tmp_path, WALK, CROSS, short, alone)))
     people = sorted(scene.recordings[0].tracks[i].id for _, i in scene.episodes)
     assert people == [1, 2]
 
 
 def test_the_episode_list_is_seeded_and_random_picks_from_it():
     folder = crowds()
-    files = replay.scene_files("zara1", folder)
-    first = replay.load_scene(files).episodes
-    assert replay._load_scene.__wrapped__(files, ()).episodes == first  # the same afresh
+    files = scenes.scene_files("zara1", folder)
+    first = scenes.load_scene(files).episodes
+    assert scenes._load_scene.__wrapped__(files, ()).episodes == first  # the same afresh
     assert len(first) >= 100 and first != tuple(sorted(first))
 
     def picked(seed):
@@ -130,7 +131,7 @@ def test_the_robot_is_at_least_as_fast_as_the_person_it_replaces(tmp_path):
     fast = [(10 * k, 1, 0.8 * k, 0.0) for k in range(21)]  # 2 m/s ...
     beside = [(10 * k, 2, 0.8 * k, 1.5) for k in range(21)]  # ... beside another
     v_max = load(scene_file(tmp_path, fast, beside, name="fast")).task.agent.v_max
-    assert v_max == pytest.approx(replay.SPEED_MARGIN * 2.0)
+    assert v_max == pytest.approx(replay_task.SPEED_MARGIN * 2.0)
     assert load(slow).task.agent.v_max == 1.5  # the holonomic default
     assert load(slow, v_max=0.7).task.agent.v_max == 0.7  # given: kept
 
@@ -146,26 +147,26 @@ def test_a_person_who_would_appear_on_the_robot_waits_until_its_track_is_clear(t
     appears = int(np.flatnonzero(radius > 0)[0]) + 1  # the step after which it is seen
     assert 20 < appears <= 23  # held for a step or two, then where its track is
     gap = np.hypot(*seen[appears - 1]["moving_obstacles"][row, :2])
-    assert gap > 2 * replay.PEDESTRIAN_RADIUS
+    assert gap > 2 * people.PEDESTRIAN_RADIUS
 
 
 def test_self_collisions_are_rare_under_the_collision_distance():
     folder = crowds()
     for scene, bound in (("eth", 0.05), ("hotel", 0.05), ("zara1", 0.05), ("zara2", 0.1)):
-        hits = replay.self_collisions(scene, folder, episodes=20)
+        hits = people.self_collisions(scene, folder, episodes=20)
         assert len(hits) == 20 and hits.mean() <= bound, scene
     # with CrowdNav's 0.3 m discs the same people "collide" often: the check can fail
-    wide = replay.self_collisions("zara2", folder, episodes=20, radius=0.3, robot_radius=0.3)
+    wide = people.self_collisions("zara2", folder, episodes=20, radius=0.3, robot_radius=0.3)
     assert wide.mean() > 0.3
-    picked = replay.self_collisions("zara2", folder, episodes=[19, 3], radius=0.3, robot_radius=0.3)
+    picked = people.self_collisions("zara2", folder, episodes=[19, 3], radius=0.3, robot_radius=0.3)
     assert picked.tolist() == [wide[19], wide[3]]  # episodes by index
 
 
 def test_self_collisions_find_a_person_who_walks_through_another(tmp_path):
     through = [(10 * k, 8, 8.0 - 0.4 * k, 0.0) for k in range(21)]  # head-on along person 1
     path = scene_file(tmp_path, WALK, through)
-    scene = replay.load_scene(replay.scene_files(path))
-    assert replay.self_collisions(path).tolist() == [True] * len(scene.episodes)
+    scene = scenes.load_scene(scenes.scene_files(path))
+    assert people.self_collisions(path).tolist() == [True] * len(scene.episodes)
 
 
 def test_eth_people_walk_at_a_walking_speed_at_its_frame_period():
@@ -197,7 +198,7 @@ def test_the_oracle_sees_people_who_appear_within_its_horizon(tmp_path):
     env = tasks.load("replay", spec.task_params | {"random": 0})
     moving = env.reset().observation["moving_obstacles"]
     assert moving[0, 3] == 0  # person 2 appears at t = 2 s
-    assert futures.visible(0, moving)[0, 3] == replay.PEDESTRIAN_RADIUS
+    assert futures.visible(0, moving)[0, 3] == people.PEDESTRIAN_RADIUS
     assert futures.visible(0, moving) is not moving and moving[0, 3] == 0
     robot = np.array([0.0, 0.0])
     f = futures.at(0, robot)[0, 0]  # (31, 2)
@@ -231,10 +232,10 @@ def test_reactive_people_avoid_the_robot_and_are_no_longer_a_recording(tmp_path)
     assert beside(recorded) < 1e-12  # blind, on its track ...
     stand(recorded)
     assert recorded.task.outcome == "collision"  # ... into the standing robot
-    assert recorded.task.recorded and recorded.task.world.behavior == replay.RECORDED
+    assert recorded.task.recorded and recorded.task.world.behavior == replay_task.RECORDED
     reactive = load(path, reactive=True)
     assert beside(reactive) > 0.15  # ORCA: it steps aside (reciprocal: half of the way)
-    assert not reactive.task.recorded and reactive.task.world.behavior == replay.REACTIVE
+    assert not reactive.task.recorded and reactive.task.world.behavior == replay_task.REACTIVE
     spec = EpisodeSpec("replay", "mppi", "none", 0, {"scene": path, "episode": 0, "reactive": True})
     with pytest.raises(ValueError, match=r"robot \(reactive=true\): use reactive=false"):
         reach(spec)

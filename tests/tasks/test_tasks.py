@@ -10,7 +10,8 @@ from dm_env import test_utils
 
 from dcmppi import tasks
 from dcmppi.control import defaults
-from dcmppi.tasks import world_base, worlds
+from dcmppi.tasks.worlds import base as world_base
+from dcmppi.tasks.worlds import paper
 
 DATA = pathlib.Path(__file__).parent / "data"
 BARN = str(DATA / "barn_worlds_0_1.csv")
@@ -184,7 +185,7 @@ def test_crowd_reports_the_known_gaussian_not_the_truth():
     w_mean, w_std = world_base.uniform_mean_std(*world_base.OBSTACLE_TURN_RATE_RANGE)
     np.testing.assert_allclose(obs["obstacle_model"], [v_mean, v_std, w_mean, w_std])
     assert obs["moving_obstacles"].shape == (12, 4)
-    np.testing.assert_allclose(obs["moving_obstacles"][:, 3], worlds.MOVING_OBSTACLE_RADIUS)
+    np.testing.assert_allclose(obs["moving_obstacles"][:, 3], paper.MOVING_OBSTACLE_RADIUS)
 
 
 def test_default_time_limit_is_three_perimeters():

@@ -7,7 +7,9 @@ from fused_cabs import needs_fused_cabs
 
 from dcmppi import tasks
 from dcmppi.control import defaults
-from dcmppi.tasks import arcs, navigation, physics, sampling, world_base, worlds
+from dcmppi.tasks import navigation, physics
+from dcmppi.tasks.worlds import arcs, paper, sampling
+from dcmppi.tasks.worlds import base as world_base
 
 
 def drive(env, omega=0.0, steps=10_000):
@@ -236,13 +238,13 @@ def test_dubins_obstacle_reflects_off_a_wall():
 
 def test_forest_generator_makes_overlapping_clusters_and_far_apart_start_goal():
     random = np.random.RandomState(0)
-    world = worlds.generate_forest(random, n_clusters=30)
+    world = paper.generate_forest(random, n_clusters=30)
     static = world.static
-    assert static.shape == (30 * worlds.FOREST_CYLINDERS_PER_CLUSTER, 3)
+    assert static.shape == (30 * paper.FOREST_CYLINDERS_PER_CLUSTER, 3)
     solid = static[static[:, 2] > 0]
     assert 30 <= len(solid) < len(static)
     assert (static[len(solid) :] == 0).all()  # padding at the end
-    lo, hi = worlds.FOREST_RADIUS_RANGE
+    lo, hi = paper.FOREST_RADIUS_RANGE
     assert (solid[:, 2] >= lo).all() and (solid[:, 2] <= hi).all()
     assert len(np.unique(solid[:, 2])) == len(solid)  # different radii
     distance = np.hypot(*(world.goal - world.start[:2]))
@@ -260,20 +262,20 @@ def test_forest_generator_makes_overlapping_clusters_and_far_apart_start_goal():
 
 
 def test_forest_density_is_n_clusters():
-    few = worlds.forest_obstacles(np.random.RandomState(0), n_clusters=10)
-    many = worlds.forest_obstacles(np.random.RandomState(0), n_clusters=60)
+    few = paper.forest_obstacles(np.random.RandomState(0), n_clusters=10)
+    many = paper.forest_obstacles(np.random.RandomState(0), n_clusters=60)
     assert (few[:, 2] > 0).sum() < (many[:, 2] > 0).sum()
 
 
 def test_crowd_generator_follows_the_spec():
-    world = worlds.generate_crowd(np.random.RandomState(1))
+    world = paper.generate_crowd(np.random.RandomState(1))
     moving = world.moving
     assert moving.shape == (100, 4)
     xmin, ymin, xmax, ymax = world.map_bounds
     assert ((moving[:, 0] >= xmin) & (moving[:, 0] <= xmax)).all()
     assert ((moving[:, 1] >= ymin) & (moving[:, 1] <= ymax)).all()
     surface = np.hypot(*(moving[:, :2] - world.start[:2]).T) - moving[:, 3]
-    assert surface.min() >= worlds.CROWD_START_CLEARANCE
+    assert surface.min() >= paper.CROWD_START_CLEARANCE
     lo, hi = world_base.OBSTACLE_SPEED_RANGE
     assert (world.moving_speed >= lo).all() and (world.moving_speed <= hi).all()
     lo, hi = world_base.OBSTACLE_TURN_RATE_RANGE

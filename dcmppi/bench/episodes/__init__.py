@@ -7,6 +7,7 @@
     futures.py       the moving obstacles' own futures (the oracle, reachability)
     reachability.py  which episodes an ideal robot could solve
     snapshot.py      one planning step of several controllers (paper Fig. 2 and 4)
+    seeds.py         the seed of an experiment's environment i (its world, noise, sampling)
 
 The bottom layer of dcmppi.bench: imports dcmppi.control and dcmppi.tasks only.
 """

@@ -56,7 +56,7 @@ class Reach:
 def reach(spec: EpisodeSpec) -> Reach:
     """The reachable set of the ideal robot in the episode of `spec` (its task and seed; the
     controller plays no part). A ValueError where the moving obstacles react to the robot."""
-    from dcmppi.tasks.world_base import GOAL_TOLERANCE
+    from dcmppi.tasks.worlds.base import GOAL_TOLERANCE
 
     env = make_env(spec)
     world, task = reset_exogenous(env, spec.task, "reachability"), env.task

@@ -369,8 +369,8 @@ class Episode:
 
     def result(self) -> EpisodeResult:
         """The metrics of the finished episode (see `run_episode`)."""
-        from dcmppi.tasks.barn import navigation_score
-        from dcmppi.tasks.world_base import GOAL_TOLERANCE
+        from dcmppi.tasks.worlds.barn import navigation_score
+        from dcmppi.tasks.worlds.base import GOAL_TOLERANCE
 
         path = self.path
         outcome = self.env.task.outcome
@@ -431,7 +431,7 @@ class Episode:
 
     def _blocked(self) -> bool:
         """Whether the task is `blocked` (one obstacle between start and goal)."""
-        from dcmppi.tasks.two_valley import Blocked
+        from dcmppi.tasks.worlds.two_valley import Blocked
 
         return isinstance(self.env.task, Blocked)
 
@@ -475,8 +475,8 @@ class Episode:
         if human is None:
             names = "scene recording person human_time human_path_length frame_path_length"
             return dict.fromkeys(names.split())
-        from dcmppi.tasks.recordings import SCENES
         from dcmppi.tasks.replay import sampled_path_length
+        from dcmppi.tasks.replay.recordings import SCENES
 
         times = np.arange(len(path)) * self.env.control_timestep()
         scene = next((k for k, files in SCENES.items() if human.recording in files), None)

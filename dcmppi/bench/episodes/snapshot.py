@@ -11,7 +11,7 @@ import dataclasses
 import numpy as np
 
 from dcmppi.bench.episodes.runner import EpisodeSpec, act, controller_for, make_env
-from dcmppi.tasks.arcs import dubins_pose
+from dcmppi.tasks.worlds.arcs import dubins_pose
 
 FIGURE_CONTROLLERS = ("mppi", "clustered", "dc")
 

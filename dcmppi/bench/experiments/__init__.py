@@ -7,13 +7,12 @@ BARN world of the `layout` task) also sets that task parameter to i in environme
 shipped experiments (static, dynamic, dynamic-dubins, barn) are TOML files beside this module;
 `load_experiment` takes their names or a path. The file format: `dcmppi.bench.experiments.schema`.
 
-A controller parameter `model` given as a table is a model recipe (`models`): environment i's
-spec holds the path of a `learned` predictor's model trained for it (e.g. on the ETH/UCY scenes
-other than environment i's), trained on first use and cached.
+A controller parameter `model` given as a table is a model recipe (dcmppi.bench.crowds.recipes):
+environment i's spec holds the path of a `learned` predictor's model trained for it (e.g. on the
+ETH/UCY scenes other than environment i's), trained on first use and cached.
 
-May import dcmppi.tasks (task names, noise profiles, recordings), dcmppi.bench.episodes
-(controller names; the obstacles' own motion, which `crowds` records) and the learned
-predictor's training (`models`); runs no episode itself.
+May import dcmppi.tasks (task names, noise profiles), dcmppi.bench.episodes (controller names,
+the environments' seeds) and the model recipes of dcmppi.bench.crowds; runs no episode itself.
 """
 
 from __future__ import annotations
@@ -25,10 +24,9 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import NamedTuple
 
-import numpy as np
-
+from dcmppi.bench.crowds import recipes
 from dcmppi.bench.episodes.runner import EpisodeSpec
-from dcmppi.bench.experiments import models
+from dcmppi.bench.episodes.seeds import environment_seed
 from dcmppi.bench.experiments.schema import RESERVED, ExperimentError, check_params, parse
 
 if sys.version_info >= (3, 11):
@@ -63,12 +61,6 @@ class Row:
     controller: str
     params: dict = dataclasses.field(default_factory=dict)
     paper: dict = dataclasses.field(default_factory=dict)
-
-
-def environment_seed(base_seed: int, index: int) -> int:
-    """The seed of environment `index` of an experiment of `base_seed` (its world, noise and
-    controller streams come from it): SeedSequence([base_seed, index])'s first word."""
-    return int(np.random.SeedSequence([base_seed, index]).generate_state(1)[0])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -176,12 +168,12 @@ class Experiment:
 
     def _models(self, where: str, params: dict, task_params: dict, index: int) -> dict:
         """`params` with each model recipe replaced by the path of its trained file, trained
-        first where it is missing (`models`)."""
+        first where it is missing (`recipes`)."""
         out = dict(params)
         for name, value in params.items():
-            if models.is_recipe(name, value):
-                resolved = models.resolve(where, value, self, task_params, index)
-                out[name] = str(models.ensure(where, resolved))
+            if recipes.is_recipe(name, value):
+                resolved = recipes.resolve(where, value, self, task_params, index)
+                out[name] = str(recipes.ensure(where, resolved))
         return out
 
     def specs(

@@ -24,7 +24,7 @@ from __future__ import annotations
 import json
 import numbers
 
-from dcmppi.bench.experiments import models
+from dcmppi.bench.crowds import recipes
 from dcmppi.tasks import NOISE_PROFILES
 
 TOP_KEYS = {
@@ -250,13 +250,13 @@ def _row(source, i, data, resolve) -> dict:
 
 def check_params(source, key, data, reserved) -> dict:
     """`data` (parameters at `key`) checked: no name in `reserved`, values JSON without NaN or
-    infinities, a model recipe's keys and types (`models.check`); a copy."""
+    infinities, a model recipe's keys and types (`recipes.check`); a copy."""
     out = _check_values(source, key, data, reserved)
     for name, value in out.items():
-        if models.is_recipe(name, value):
+        if recipes.is_recipe(name, value):
             try:
-                models.check(f"{key}.{name}", value)
-            except models.RecipeError as e:
+                recipes.check(f"{key}.{name}", value)
+            except recipes.RecipeError as e:
                 where = f"{key}.{name}"
                 raise ExperimentError(source, where, f"model recipe: {e.reason}") from None
     return out

@@ -46,7 +46,7 @@ from dcmppi.bench.results.stats import (
     smoothness,
     summarize,
 )
-from dcmppi.tasks.world_base import GOAL_TOLERANCE
+from dcmppi.tasks.worlds.base import GOAL_TOLERANCE
 
 METRICS_NOTE = (
     "Per row over its finished episodes. Rates in % with 95 % Wilson intervals: success (the "
@@ -132,7 +132,7 @@ SCORE_NOTE = (
     "Success: the goal reached without collision within the time limit; 95 % Wilson interval, "
     "the published success rate in parentheses. Navigation score (BARN): success x "
     "optimal_time / clip(time, 2 optimal_time, 8 optimal_time), optimal_time = shortest "
-    "collision-free path length / 2 m/s (dcmppi.tasks.barn); mean over episodes with a 95 % "
+    "collision-free path length / 2 m/s (dcmppi.tasks.worlds.barn); mean over episodes with a 95 % "
     "percentile-bootstrap interval (10,000 resamples). Score - reference: mean paired "
     "difference over the environments both rows scored, bootstrap interval over environments."
 )

@@ -19,7 +19,7 @@ import numpy as np
 from dcmppi.bench.episodes import columns
 from dcmppi.bench.episodes.columns import Column
 from dcmppi.tasks import NOISE_PROFILES
-from dcmppi.tasks.world_base import GOAL_TOLERANCE
+from dcmppi.tasks.worlds.base import GOAL_TOLERANCE
 
 Z95 = 1.959963984540054
 BOOTSTRAP = 10_000  # resamples of a bootstrap interval

@@ -15,7 +15,7 @@ defaults K = 500, N = 50); every act() sees what the task would observe, map bou
   reflecting off the walls); `dc` with P = 25 (and the others for reference).
 - corridor, crowd-sf: the corridor task's world (12 social-force pedestrians, its
   walls as static cylinder rows) and the crowd task's with behavior "social_force" (100
-  walkers), the pedestrians (tasks.pedestrians.Pedestrians) built and advanced once per control
+  walkers), the pedestrians (tasks.pedestrians.walkers) built and advanced once per control
   period as the task does, act() given their observed velocities (moving_velocity) too; the
   holonomic robot with the pedestrian experiments' shared parameters, `dc` with each predictor
   (prior, cv, social) and `mppi` for reference.

@@ -167,10 +167,10 @@ PROFILE_CASES = (
 
 def with_model(params: dict) -> dict:
     """`params` with a model recipe (a table for `model`, resolved as
-    dcmppi.bench.experiments.models resolves one) replaced by the path of its trained file."""
-    from dcmppi.bench.experiments import models
+    dcmppi.bench.crowds.recipes resolves one) replaced by the path of its trained file."""
+    from dcmppi.bench.crowds import recipes
 
-    recipe = params.get(models.PARAM)
-    if not models.is_recipe(models.PARAM, recipe):
+    recipe = params.get(recipes.PARAM)
+    if not recipes.is_recipe(recipes.PARAM, recipe):
         return params
-    return {**params, models.PARAM: str(models.ensure("dcmppi timing", recipe))}
+    return {**params, recipes.PARAM: str(recipes.ensure("dcmppi timing", recipe))}

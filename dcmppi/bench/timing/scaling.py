@@ -22,7 +22,7 @@ from threadpoolctl import threadpool_limits
 from dcmppi.bench.timing.loop import BLOCK, ClosedLoop, interleave
 from dcmppi.bench.timing.worlds import dense_forest, world
 from dcmppi.control import defaults
-from dcmppi.tasks import worlds as task_worlds
+from dcmppi.tasks.worlds import paper as task_worlds
 
 CONTROLLERS = ("mppi", "clustered", "dc", "tube")
 HOME = {"mppi": "forest", "clustered": "forest", "tube": "forest", "dc": "crowd"}

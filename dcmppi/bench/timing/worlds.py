@@ -1,28 +1,29 @@
 """Timing's problems: the tasks' forest, crowd and pedestrian worlds, and the push of
 forest+push.
 
-The worlds are the tasks' own, drawn by their generators (dcmppi.tasks.worlds, plain numpy) from
-`np.random.RandomState(SEED)`: the same arrays a task observes (static (M, 3) rows x, y, radius,
-radius-0 rows padding; moving (L, 4) rows x, y, heading, radius; the map's bounds (4,)), and the
-crowd moves as the crowd task's obstacles do (tasks.arcs.DubinsObstacles). The pedestrian
-problems (PEDESTRIANS) are a task's world with its pedestrians (tasks.pedestrians.Pedestrians)
-built as the task's physics builds them, walking to the goals the task's next_goal gives.
+The worlds are the tasks' own, drawn by their generators (dcmppi.tasks.worlds.paper, plain
+numpy) from `np.random.RandomState(SEED)`: the same arrays a task observes (static (M, 3) rows
+x, y, radius, radius-0 rows padding; moving (L, 4) rows x, y, heading, radius; the map's bounds
+(4,)), and the crowd moves as the crowd task's obstacles do (tasks.worlds.arcs.DubinsObstacles).
+The pedestrian problems (PEDESTRIANS) are a task's world with its pedestrians
+(tasks.pedestrians.walkers.Pedestrians) built as the task's physics builds them, walking to the
+goals the task's next_goal gives.
 """
 
 import numpy as np
 
-from dcmppi.tasks import arcs as task_arcs
-from dcmppi.tasks import pedestrians as task_pedestrians
-from dcmppi.tasks import worlds as task_worlds
-from dcmppi.tasks.corridor import Corridor
-from dcmppi.tasks.crowd import Crowd
+from dcmppi.tasks.pedestrians import walkers as task_pedestrians
+from dcmppi.tasks.pedestrians.corridor import Corridor
+from dcmppi.tasks.pedestrians.crowd import Crowd
+from dcmppi.tasks.worlds import arcs as task_arcs
+from dcmppi.tasks.worlds import paper as task_worlds
 
 SEED = 0
 GENERATORS = {"forest": task_worlds.generate_forest, "crowd": task_worlds.generate_crowd}
 
 
 def world(family, seed=SEED, **counts):
-    """The tasks' World (dcmppi.tasks.world_base.World) of a problem family ("forest", "crowd");
+    """The tasks' World (dcmppi.tasks.worlds.base.World) of a problem family ("forest", "crowd");
     `counts` go to its generator (forest: n_clusters, map_size; crowd: n_obstacles)."""
     return GENERATORS[family](np.random.RandomState(seed), **counts)
 
@@ -59,8 +60,8 @@ def pedestrian_task(problem, seed=SEED):
 
 def walking_crowd(task, random, dt):
     """The pedestrians of `task.world` as the task's physics builds them (Physics.set_world):
-    tasks.pedestrians.Pedestrians stepping once per control period dt [s], walls and the box of
-    the map and the walls as bounds, task.next_goal on arrival. Advance it with
+    tasks.pedestrians.walkers.Pedestrians stepping once per control period dt [s], walls and the
+    box of the map and the walls as bounds, task.next_goal on arrival. Advance it with
     advance(1, robot_xy, robot_velocity); observe it with `observed` and its `velocity`."""
     w = task.world
     heading = np.column_stack([np.cos(w.moving[:, 2]), np.sin(w.moving[:, 2])])

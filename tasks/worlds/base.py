@@ -4,8 +4,8 @@ Nothing here builds physics, so benchmarks and plots can regenerate the exact wo
 drew (same `random` -> same world). Arrays follow the observation contract:
 static (M, 3) rows x, y, radius (radius 0 = padding); moving (L, 4) rows x, y, heading, radius.
 Walls are segments (W, 4) x0, y0, x1, y1 for the pedestrians' forces and, for the physics and
-the planners, rows of overlapping static cylinders (pedestrian_worlds.wall_cylinders).
-The generators: `worlds` (forest, crowd), `pedestrian_worlds` (corridor, square); `sampling`
+the planners, rows of overlapping static cylinders (pedestrians.worlds.wall_cylinders).
+The generators: `paper` (forest, crowd), pedestrians.worlds (corridor, square); `sampling`
 draws their starts, goals and discs.
 """
 
@@ -44,7 +44,7 @@ class World:
       map_bounds: (4,) xmin, ymin, xmax, ymax.
       obstacle_model: (4,) known Gaussian v_mean, v_std, omega_mean, omega_std.
       behavior: how the moving cylinders move: "constant" (Dubins arcs, `DubinsObstacles`) or
-        another behaviour of tasks.pedestrians.BEHAVIOR (pedestrians that walk).
+        another behaviour of tasks.pedestrians.walkers.BEHAVIOR (pedestrians that walk).
       moving_goal: (L, 2) the pedestrians' first goals (hidden; nan for "constant").
       moving_pref_speed: (L,) the pedestrians' preferred speeds [m/s] (hidden; nan for
         "constant").

@@ -1,7 +1,7 @@
 """The forecasters the evaluation compares: the field's constant-velocity baselines and the
 project's predictors through their Predictor interface.
 
-A forecaster maps windows (dcmppi.tasks.recordings.Windows) to samples (M, P, pred, 2) and a
+A forecaster maps windows (dcmppi.tasks.replay.recordings.Windows) to samples (M, P, pred, 2) and a
 point forecast (M, pred, 2) of each window's future, one recording frame apart.
 """
 

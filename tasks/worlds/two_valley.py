@@ -10,10 +10,10 @@ import numpy as np
 from dcmppi.control.kernels.dynamics import wrap_angle
 from dcmppi.control.validation import finite, positive
 
+from ..navigation import Navigation
 from .arcs import dubins_pose
-from .navigation import Navigation
-from .world_base import make_world, map_bounds
-from .worlds import MOVING_OBSTACLE_RADIUS
+from .base import make_world, map_bounds
+from .paper import MOVING_OBSTACLE_RADIUS
 
 
 def _line(distance, bounds):

@@ -1,6 +1,6 @@
 """The pedestrian worlds as plain numpy: the corridor, the square, and walls.
 
-Pedestrians walk to goals (tasks.pedestrians); a world gives their first goals and preferred
+Pedestrians walk to goals (`walkers`); a world gives their first goals and preferred
 speeds. Walls are segments (W, 4) for the pedestrians' forces and rows of static cylinders
 (`wall_cylinders`) for the physics and the planners.
 """
@@ -9,8 +9,8 @@ import math
 
 import numpy as np
 
-from .sampling import PEDESTRIAN_START_GAP, heading_to, place_discs, random_points
-from .world_base import World, make_world, map_bounds, uniform_mean_std
+from ..worlds.base import World, make_world, map_bounds, uniform_mean_std
+from ..worlds.sampling import PEDESTRIAN_START_GAP, heading_to, place_discs, random_points
 
 # Pedestrian worlds (docs/design.md, Experiments).
 PEDESTRIAN_RADIUS = 0.3  # [m]

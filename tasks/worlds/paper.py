@@ -1,15 +1,14 @@
 """The paper's worlds as plain numpy: the static forest and the moving crowd (docs/design.md).
 
-`world_base` holds their contract (`World`, `make_world`), `pedestrian_worlds` the corridor
-and the square, `arcs` how the crowd moves (`DubinsObstacles`).
+`base` holds their contract (`World`, `make_world`), pedestrians.worlds the corridor and the
+square, `arcs` how the crowd moves (`DubinsObstacles`).
 """
 
 import numpy as np
 
 from dcmppi.control import defaults
 
-from .sampling import heading_to, place_discs, random_points, sample_start_goal
-from .world_base import (
+from .base import (
     BEHAVIOR_CONSTANT,
     MAP_SIZE,
     OBSTACLE_SPEED_RANGE,
@@ -19,6 +18,7 @@ from .world_base import (
     make_world,
     map_bounds,
 )
+from .sampling import heading_to, place_discs, random_points, sample_start_goal
 
 # Forest (docs/design.md, Experiments). FOREST_CLUSTERS is the one density knob: the number of
 # obstacle clusters in the 75 x 50 m map. 65 is chosen so that `mppi` without noise fails

@@ -5,7 +5,7 @@ Each function's draws are part of the worlds' identity: the same `random` gives 
 
 import numpy as np
 
-from .world_base import clearance
+from .base import clearance
 
 MIN_START_GOAL_DISTANCE = 30.0  # [m]
 START_GOAL_CLEARANCE = 1.0  # [m] free space around the robot at start and goal

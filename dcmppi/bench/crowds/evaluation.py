@@ -4,9 +4,9 @@ Every file is read at 0.4 s a frame, biwi_eth included, as the prediction papers
 figures are comparable only so; biwi_eth's true period is 0.667 s). Leave one scene out: a
 scene's files are the test set, every other file (the training-only ones too) trains the
 learned model and fits the population Gaussian of "prior" and "ekf". Every window of 8 observed
-and 12 predicted consecutive frames of every person is forecast (dcmppi.tasks.recordings.windows)
-with 20 samples; metrics.py says what each column measures. A five-scene average is the mean of
-the scenes' means, as the papers average.
+and 12 predicted consecutive frames of every person is forecast
+(dcmppi.tasks.replay.recordings.windows) with 20 samples; forecast_metrics.py says what each
+column measures. A five-scene average is the mean of the scenes' means, as the papers average.
 """
 
 import pathlib
@@ -14,9 +14,9 @@ import tempfile
 
 import numpy as np
 
-from dcmppi.bench.forecasts import forecasters, metrics
+from dcmppi.bench.crowds import forecast_metrics, forecasters
 from dcmppi.control.predictors import learned, predictor_class
-from dcmppi.tasks import recordings
+from dcmppi.tasks.replay import recordings
 
 OBS, PRED = 8, 12
 PERIOD = recordings.PERIOD
@@ -89,8 +89,8 @@ def evaluate(
             "samples": forecasters.SAMPLES,
             "seed": seed,
             "limit": limit,
-            "bandwidth_floor": metrics.BANDWIDTH_FLOOR,
-            "hdr_mass": metrics.HDR_MASS,
+            "bandwidth_floor": forecast_metrics.BANDWIDTH_FLOOR,
+            "hdr_mass": forecast_metrics.HDR_MASS,
         },
         "windows": counts,
         "models": used,
@@ -115,8 +115,8 @@ def forecaster(name, train, model=None):
 def score(samples, truth, point, seed=0) -> dict:
     """{column: mean over windows} of samples (M, P, pred, 2) against truth (M, pred, 2)."""
     scores = {
-        **metrics.displacement(samples, truth, point),
-        **metrics.kde_scores(samples, truth, seed),
+        **forecast_metrics.displacement(samples, truth, point),
+        **forecast_metrics.kde_scores(samples, truth, seed),
     }
     return {c: float(scores[c].mean()) for c in COLUMNS}
 

@@ -10,7 +10,7 @@ and a behaviour turns that into its velocity for the next control period:
     hl             navground's HL (Guzzi et al. 2013, a human-like heuristic)
 
 BEHAVIOR registers them by name with their settings (`Behavior`), and "constant", the crowd's
-Dubins arcs (arcs.DubinsObstacles, not this class).
+Dubins arcs (worlds.arcs.DubinsObstacles, not this class).
 navground's behaviours get, each step, the other pedestrians within NEIGHBOR_RANGE (and the
 robot when visible) as neighbours, the walls as line obstacles and the desired velocity as their
 target; an omnidirectional kinematics caps their speed at MAX_SPEED_FACTOR x the preferred
@@ -30,7 +30,7 @@ from dcmppi.control.kernels.social import MAX_SPEED_FACTOR
 from dcmppi.control.registry import Registry
 from dcmppi.control.validation import array
 
-from .world_base import BEHAVIOR_CONSTANT
+from ..worlds.base import BEHAVIOR_CONSTANT
 
 NEIGHBOR_RANGE = 10.0  # [m] centre distance within which navground's behaviours see others
 MAX_NEIGHBORS = 10  # ORCA's and HRVO's nearest neighbours (CrowdNav's ORCA)
@@ -46,7 +46,7 @@ class Behavior:
     max_neighbors: the nearest neighbours it considers (None: navground's default).
     sees_walls: False for a behaviour that ignores walls (worlds with walls refuse it).
     relaxes: whether it relaxes from its actuated twist rather than from the velocity.
-    walks: False for the crowd's Dubins arcs (arcs.DubinsObstacles, not Pedestrians).
+    walks: False for the crowd's Dubins arcs (worlds.arcs.DubinsObstacles, not Pedestrians).
     """
 
     navground: str | None = None
@@ -158,7 +158,7 @@ class Pedestrians:
 
     def advance(self, n, robot_xy, robot_velocity) -> np.ndarray:
         """Moves one control period in n substeps; returns the centres after each substep as
-        complex (n, L) (the same contract as arcs.DubinsObstacles.advance). robot_xy,
+        complex (n, L) (the same contract as worlds.arcs.DubinsObstacles.advance). robot_xy,
         robot_velocity (2,): the robot now (ignored unless robot_visible)."""
         if self._robot_visible:
             robot_xy = array("robot_xy", robot_xy, (2,), finite=True)

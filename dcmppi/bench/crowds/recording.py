@@ -1,6 +1,6 @@
 """Simulated crowds recorded as ETH/UCY recordings: the moving obstacles of a task's episodes
-written in the four-column format (`dcmppi.tasks.recordings`), so that the `learned` predictor
-trains on them as on recorded people (`dcmppi record`, a model recipe's `record`).
+written in the four-column format (`dcmppi.tasks.replay.recordings`), so that the `learned`
+predictor trains on them as on recorded people (`dcmppi record`, a model recipe's `record`).
 
 The robot is absent: it is parked far away and still while the obstacles step by their own
 model (`dcmppi.bench.episodes.futures.obstacle_tracks`, what the true futures use), so the
@@ -9,8 +9,8 @@ crowd walks as it would with nobody else there, whether or not it could see a ro
 experiment's pedestrians are blind to the robot (square-orca), its test episodes move exactly
 as recorded ones of their seeds would.
 
-Episode e is the task with `random` = SeedSequence([base_seed, e])'s first word (what
-`Experiment.seed` gives environment e of an experiment of that base seed), run for `seconds`
+Episode e is the task with `random` = SeedSequence([base_seed, e])'s first word
+(`environment_seed`: what an experiment of that base seed gives environment e), run for `seconds`
 (default: the task's time limit); a frame every `period` seconds (a whole number of control
 steps), the first at the reset. Each episode's frames follow the previous one's after a gap of
 one frame, and each person (a row of the moving obstacles while it holds someone) gets an id of
@@ -19,9 +19,10 @@ their own, so no window or neighbour spans two episodes.
 
 import numpy as np
 
+from dcmppi import tasks
 from dcmppi.bench.episodes import futures
-from dcmppi.bench.experiments import environment_seed
-from dcmppi.tasks import recordings
+from dcmppi.bench.episodes.seeds import environment_seed
+from dcmppi.tasks.replay import recordings
 
 WITH_PEDESTRIANS = ("square", "corridor", "crowd")  # named in errors: tasks with walkers
 
@@ -43,8 +44,6 @@ def record(
         are recordings already), a period that is no whole number of control steps, or bad
         counts.
     """
-    from dcmppi import tasks
-
     if task == "replay":
         raise ValueError(
             "record: the replay task's people are recordings already; train on their files "

@@ -13,7 +13,7 @@ A recipe names its data by one of:
   episodes of `task` (default: the experiment's, with its task parameters, the environment
   index's left out) under the seeds of `base_seed`, which must differ from the experiment's (so
   none is a test environment's), recorded as `dcmppi record` records them
-  (`dcmppi.bench.experiments.crowds`);
+  (`dcmppi.bench.crowds.recording`);
 and may set the training as `dcmppi predictor train` takes it: `seed` (default 0), `period`
 (the frame period every file is read at, default recordings.PERIOD), `max_windows`.
 
@@ -44,8 +44,9 @@ import pathlib
 import string
 import sys
 
+from dcmppi.bench.crowds import recording, training
 from dcmppi.control.predictors import learned
-from dcmppi.tasks import recordings
+from dcmppi.tasks.replay import recordings
 
 MODELS_ENV = "DCMPPI_MODELS"  # environment variable naming the cache folder of trained models
 MODELS_DIR = "results/models"
@@ -69,11 +70,17 @@ RECORD_KEYS = {
 }
 # the modules whose code makes a model's bytes (module names, read as files, not imported)
 TRAINING_CODE = (
-    "dcmppi.control.predictors.learned",
-    "dcmppi.tasks.recordings",
-    "dcmppi.bench.experiments.models",
+    "dcmppi.control.predictors.learned.model",
+    "dcmppi.control.predictors.learned.training",
+    "dcmppi.tasks.replay.recordings",
+    "dcmppi.bench.crowds.training",
+    "dcmppi.bench.crowds.recipes",
 )
-RECORDING_CODE = ("dcmppi.bench.experiments.crowds", "dcmppi.bench.episodes.futures")
+RECORDING_CODE = (
+    "dcmppi.bench.crowds.recording",
+    "dcmppi.bench.episodes.futures",
+    "dcmppi.bench.episodes.seeds",
+)
 
 
 class RecipeError(ValueError):
@@ -261,9 +268,13 @@ def _module_sha256(module: str) -> str:
 
 
 def _task_modules() -> list:
-    """The modules of dcmppi.tasks (the simulated crowds' code)."""
+    """The modules of dcmppi.tasks and its subpackages (the simulated crowds' code)."""
     folder = pathlib.Path(importlib.util.find_spec("dcmppi.tasks").origin).parent
-    return [f"dcmppi.tasks.{p.stem}" for p in folder.glob("*.py") if p.stem != "__init__"]
+    return [
+        ".".join(["dcmppi.tasks", *p.relative_to(folder).with_suffix("").parts])
+        for p in folder.rglob("*.py")
+        if p.stem != "__init__"
+    ]
 
 
 def ensure(where: str, resolved: dict) -> pathlib.Path:
@@ -282,23 +293,20 @@ def ensure(where: str, resolved: dict) -> pathlib.Path:
 def build(resolved: dict, path) -> None:
     """Trains the model of `resolved` into `path` (atomically) and writes its JSON beside it."""
     if "record" in resolved:
-        from dcmppi.bench.experiments import crowds
-
         r = resolved["record"]
         data = [
-            crowds.record(
+            recording.record(
                 r["task"], r["task_params"], r["episodes"], r["base_seed"], resolved["period"],
                 r.get("seconds"),
             )
         ]  # fmt: skip
     else:
-        folder = resolved.get("folder")
-        data = [recordings.load(n, folder, resolved["period"]) for n in resolved["data"]]
+        data = training.read(resolved["data"], resolved.get("folder"), resolved["period"])
     path = pathlib.Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     part = path.with_name(f".{path.name}.{os.getpid()}.part")
     try:
-        model = train(data, part, resolved["seed"], resolved.get("max_windows"))
+        model = training.train(data, part, resolved["seed"], resolved.get("max_windows"))
         info = {
             "recipe": resolved,
             "inputs": _inputs(str(path), resolved),
@@ -310,11 +318,3 @@ def build(resolved: dict, path) -> None:
         os.replace(part, path)
     finally:
         part.unlink(missing_ok=True)
-
-
-def train(data, out, seed=0, max_windows=None):
-    """A learned predictor's model of `data` (Recordings of one period) written to `out`: what
-    `dcmppi predictor train` does. Returns the `learned.Model`."""
-    model = learned.fit(recordings.windows(data), seed, max_windows=max_windows)
-    model.save(out)
-    return model

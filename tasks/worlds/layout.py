@@ -9,11 +9,11 @@ mark, as Excel writes, is skipped); coordinates and radii are at most MAX_COORDI
 
 A layout no controller could drive is refused when the task is built, naming the file and line
 of the cause: a start or goal outside the map, a robot touching a cylinder at its start, a goal
-inside a cylinder (`world_base.impossible`).
+inside a cylinder (`base.impossible`).
 
 BARN (Perille et al. 2020, MIT licence): pass world=N (0-299). Start, goal and time limit then
 default to the challenge's protocol (BARN_START, BARN_GOAL, BARN_TIME_LIMIT) and the task gives
-the `optimal_time` of BARN's navigation score (tasks/barn.py). The BARN file is not part of
+the `optimal_time` of BARN's navigation score (`barn`). The BARN file is not part of
 dcmppi: it is `path`, else the file that $DCMPPI_BARN names.
 """
 
@@ -27,9 +27,9 @@ import pathlib
 
 import numpy as np
 
+from ..navigation import Navigation
 from . import barn
-from .navigation import Navigation
-from .world_base import MAX_COORDINATE, impossible, make_world
+from .base import MAX_COORDINATE, impossible, make_world
 
 BARN_START = (-2.25, 3.0, math.pi / 2)
 BARN_GOAL = (-2.25, 13.0)
@@ -283,7 +283,7 @@ class Layout(Navigation):
     @property
     def optimal_time(self) -> float | None:
         """BARN's optimal time [s] of a BARN world: the shortest collision-free path length for
-        this robot radius (tasks/barn.py, planned once per world and process) over the Jackal's
+        this robot radius (`barn`, planned once per world and process) over the Jackal's
         top speed BARN_TOP_SPEED, as the challenge divides by 2 m/s whatever speed a robot
         runs at. None for other layouts and for a world with no path for this radius."""
         if not self._barn:
@@ -330,7 +330,7 @@ def _pick(name, size, origin, given, file, default):
 
 def _check_possible(world, robot_radius, path, layout, origin):
     """ValueError naming the file and line of the cause if no controller could drive `world`
-    (`world_base.impossible`): the cylinder's line, else where the start, goal or bounds came
+    (`base.impossible`): the cylinder's line, else where the start, goal or bounds came
     from."""
     problem = impossible(world, robot_radius)
     if problem is None:

@@ -281,6 +281,37 @@ def test_each_package_docstring_names_its_modules_and_only_what_exists():
     assert not stale, f"package docstrings that name what does not exist: {stale}"
 
 
+def _package_name(folder: pathlib.Path) -> str:
+    """The dotted name of a package folder of dcmppi (top-level folders by their map)."""
+    for name, root in PACKAGES.items():
+        if folder == root or root in folder.parents:
+            return ".".join([name, *folder.relative_to(root).parts])
+    raise ValueError(folder)
+
+
+def test_design_layout_names_every_package_and_its_modules():
+    """docs/design.md's "Package layout" table has a row per package (the data of
+    dcmppi.models and the root's own modules aside) naming each of its modules and
+    subpackages, and no row for a package that does not exist."""
+    text = (ROOT / "docs" / "design.md").read_text()
+    section = text.split("\n## Package layout\n", 1)[1].split("\n## ", 1)[0]
+    rows = {}
+    for line in section.splitlines():
+        match = re.match(r"\| `([\w.]+)` \|[^|]*\|(.*)\|$", line)
+        if match:
+            rows[match[1]] = set(re.findall(r"`(\w+)`", match[2]))
+    lacking, packages = [], set()
+    for folder, _, children in _packages():
+        name = _package_name(folder)
+        if name == "dcmppi" or name.startswith("dcmppi.models"):
+            continue
+        packages.add(name)
+        named = rows.get(name, set())
+        lacking += [f"{name}: {c}" for c in children if c != "__main__" and c not in named]
+    assert not lacking, f"design.md's layout table does not name: {lacking}"
+    assert set(rows) == packages, f"rows without a package: {set(rows) - packages}"
+
+
 def test_pyproject_installs_each_top_level_folder_as_the_package_maps_it():
     setuptools = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
     assert setuptools["package-dir"] == {"dcmppi": "dcmppi", **dcmppi.TOP_LEVEL_FOLDERS}

@@ -272,8 +272,26 @@ class Physics(dm_mujoco.Physics):
         a row that is not present holds no obstacle now (radius 0 in `moving_obstacles`, and
         the motion parks it far away, so it touches nothing); world.moving is its state at
         t = 0 (replay.people.RecordedPeople: rows that recorded people come and go by)."""
+        self._place_static(world.static)
+        goal = self._m.geom("goal").id
+        self._m.geom_pos[goal, :2] = world.goal
+        self._m.geom_size[goal, 0] = GOAL_TOLERANCE
+        moving = world.moving
+        self._size_moving(moving[:, 3] if motion is None else motion.radius)
+        self._coming = motion is not None  # rows that obstacles come and go by
+        self._walking = self._coming or len(moving) > 0 and world.behavior != BEHAVIOR_CONSTANT
+        self._moving, obstacle_speed = self._obstacle_motion(world, next_goal, random, motion)
+        if len(moving):
+            self._mocap_xy[:] = moving[:, :2]
+            self._set_mocap_heading(moving[:, 2])
+        # Fastest closing speed robot-obstacle, with room for disturbances [m/s].
+        self._speed_bound = 2.0 * top_speed + 1.0 + obstacle_speed
+        self._place_robot(world.start, velocity, command, moving)
+
+    def _place_static(self, static):
+        """Puts the solid rows of static (M, 3) x, y, radius into the static slots; parks and
+        hides the rest (radius 0)."""
         m = self._m
-        static = world.static
         solid = static[:, 2] > 0
         ids = self._static_ids
         m.geom_pos[ids, :2] = np.where(solid[:, None], static[:, :2], PARKED)
@@ -285,12 +303,10 @@ class Physics(dm_mujoco.Physics):
         self._solid_z = self._solid[:, 0] + 1j * self._solid[:, 1]
         self._solid_r = self._solid[:, 2].copy()
 
-        goal = m.geom("goal").id
-        m.geom_pos[goal, :2] = world.goal
-        m.geom_size[goal, 0] = GOAL_TOLERANCE
-
-        moving = world.moving
-        radius = moving[:, 3] if motion is None else motion.radius
+    def _size_moving(self, radius):
+        """Sizes the moving slots to radius (L,). No obstacle collides (the static slots'
+        conaffinity is cleared too) until `step` enables the near ones (`_activate_near`)."""
+        m = self._m
         self._moving_obs[:, 3] = radius
         _set_cylinders(m, self._moving_ids, radius)
         _set_heading_bars(m, self._heading_ids, radius)
@@ -298,17 +314,18 @@ class Physics(dm_mujoco.Physics):
         m.body_conaffinity[self._moving_bodies] = 0
         self._switch_contacts(True)
         self._near = None
-        self._coming = motion is not None  # rows that obstacles come and go by
-        self._walking = self._coming or len(moving) > 0 and world.behavior != BEHAVIOR_CONSTANT
-        obstacle_speed = 0.0
+
+    def _obstacle_motion(self, world, next_goal, random, motion):
+        """The moving obstacles' model (set_world's motion, walkers.Pedestrians, DubinsObstacles
+        or None without any) and their top speed [m/s]."""
+        moving = world.moving
         if motion is not None:
-            self._moving = motion
-            obstacle_speed = motion.max_speed
-        elif self._walking:
+            return motion, motion.max_speed
+        if self._walking:
             heading = np.column_stack([np.cos(moving[:, 2]), np.sin(moving[:, 2])])
             # They walk in the map and along its walls (the corridor's reach past its ends).
             corners = np.concatenate([world.map_bounds.reshape(2, 2), world.walls.reshape(-1, 2)])
-            self._moving = walkers.Pedestrians(
+            pedestrians = walkers.Pedestrians(
                 world.behavior,
                 moving[:, :2],
                 world.moving_speed[:, None] * heading,
@@ -323,33 +340,30 @@ class Physics(dm_mujoco.Physics):
                 random,
                 self.control_period,
             )
-            obstacle_speed = walkers.MAX_SPEED_FACTOR * world.moving_pref_speed.max()
-        elif len(moving):
-            self._moving = DubinsObstacles(
+            return pedestrians, walkers.MAX_SPEED_FACTOR * world.moving_pref_speed.max()
+        if len(moving):
+            arcs = DubinsObstacles(
                 moving[:, :3],
                 world.moving_speed,
                 world.moving_turn_rate,
                 world.map_bounds,
                 self.timestep(),
             )
-            obstacle_speed = np.abs(world.moving_speed).max()
-        else:
-            self._moving = None
-        if len(moving):
-            self._mocap_xy[:] = moving[:, :2]
-            self._set_mocap_heading(moving[:, 2])
-        # Fastest closing speed robot-obstacle, with room for disturbances [m/s].
-        self._speed_bound = 2.0 * top_speed + 1.0 + obstacle_speed
+            return arcs, np.abs(world.moving_speed).max()
+        return None, 0.0
 
-        x, y, _ = world.start
-        self._qpos[:3] = world.start
+    def _place_robot(self, start, velocity, command, moving):
+        """Puts the robot at start (3,) with its velocity and actuator command, no disturbance;
+        clears the contact and clearance records (moving (L, 4): the obstacles now)."""
+        self._qpos[:3] = start
         self._qvel[:3] = velocity
         self._ctrl[:] = command
         self._qfrc_applied[:] = 0.0
         self.collided = False
         self.first_contact = None
         moving_z = (moving[:, 0] + 1j * moving[:, 1])[None] if len(moving) else None
-        self._clearance = self._update_clearance(np.array([complex(x, y)]), moving_z)[0]
+        robot = np.array([complex(start[0], start[1])])
+        self._clearance = self._update_clearance(robot, moving_z)[0]
         self.min_clearance = self._clearance
 
     def _set_mocap_heading(self, heading):

@@ -417,3 +417,66 @@ def test_the_circle_check_sees_a_lazy_import_and_a_name_of_a_package(tmp_path):
     for fixed in ("from dcmppi.seeds import seed\n", "from dcmppi.exp import schema\n"):
         crowds.write_text(fixed)
         assert _cycle(_import_graph(modules)[0]) is None
+
+
+MAX_FUNCTION_LINES = 60  # def line to last line, decorators excluded
+# numba's compiling decorators (numba.njit(...), @overload(f), @intrinsic, ...): the kernels
+# they compile are exempt
+NUMBA_DECORATORS = {
+    "cfunc",
+    "generated_jit",
+    "guvectorize",
+    "intrinsic",
+    "jit",
+    "njit",
+    "overload",
+    "overload_method",
+    "stencil",
+    "vectorize",
+}
+
+
+def _names(node):
+    """The names and attribute names that `node` mentions."""
+    return {getattr(n, "id", None) or getattr(n, "attr", None) for n in ast.walk(node)} - {None}
+
+
+def _long_functions(tree, limit=MAX_FUNCTION_LINES):
+    """(line, name, lines) of each function of module `tree` longer than `limit` lines, those
+    that numba compiles left out: a decorator that names one of NUMBA_DECORATORS or a name the
+    module binds to an expression that does (`kernel = numba.njit(cache=True)`)."""
+    compiling = set(NUMBA_DECORATORS)
+    for node in tree.body:
+        if isinstance(node, ast.Assign) and _names(node.value) & compiling:
+            compiling |= {n.id for n in node.targets if isinstance(n, ast.Name)}
+    functions = (n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef | ast.AsyncFunctionDef))
+    return [
+        (f.lineno, f.name, f.end_lineno - f.lineno + 1)
+        for f in functions
+        if f.end_lineno - f.lineno + 1 > limit
+        and not any(_names(d) & compiling for d in f.decorator_list)
+    ]
+
+
+def test_no_function_is_longer_than_the_limit_outside_the_numba_kernels():
+    files = [p for root in PACKAGES.values() for p in root.rglob("*.py")]
+    assert ROOT / "tasks" / "physics.py" in files  # the top-level folders are walked too
+    long = [
+        f"{path.relative_to(ROOT)}:{line} {name} ({lines} lines)"
+        for path in sorted(files)
+        for line, name, lines in _long_functions(ast.parse(path.read_text()))
+    ]
+    assert not long, f"functions over {MAX_FUNCTION_LINES} lines (split them): {long}"
+
+
+def test_the_length_check_exempts_only_what_numba_compiles():
+    def source(decorator, lines):
+        body = "".join(f"    x = {i}\n" for i in range(lines - 1))
+        return f"{decorator}\ndef f():\n{body}"
+
+    kernel = "kernel = numba.njit(cache=True)\n"
+    assert _long_functions(ast.parse(source("", 61))) == [(2, "f", 61)]
+    assert _long_functions(ast.parse(source("@functools.cache", 61))) == [(2, "f", 61)]
+    assert _long_functions(ast.parse(source("", 60))) == []
+    for decorator in ("@numba.njit(cache=True)", "@overload(g, inline='always')", "@kernel"):
+        assert _long_functions(ast.parse(kernel + source(decorator, 61))) == []

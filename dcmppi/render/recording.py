@@ -100,30 +100,43 @@ def compare(
             tiles.append(_Tile(episode, width, height, camera, overlay, legend))
         fps = 1.0 / tiles[0].episode.env.control_timestep()
         with video.VideoWriter(path, width * len(tiles), height, fps) as writer:
-            while True:
-                writer.write(np.hstack([tile.frame() for tile in tiles]))
-                if progress and writer.frames % 50 == 0:
-                    _progress(writer.frames, tiles, start)
-                if all(tile.episode.done for tile in tiles):
-                    break
-                for tile in tiles:
-                    if not tile.episode.done:
-                        tile.episode.step()
+            _lockstep(tiles, writer, progress, start)
         if progress:
             _progress(writer.frames, tiles, start, end="\n")
     except KeyboardInterrupt:
-        if progress and writer is not None and writer.frames >= 50:
-            sys.stderr.write("\n")  # end the progress line
-        kept = writer is not None and writer.frames and path.exists()
-        raise KeyboardInterrupt(
-            f"the video so far ({writer.frames} frames) is in {path}"
-            if kept
-            else f"no video written to {path}"
-        ) from None
+        raise _interrupted(writer, path, progress) from None
     finally:
         for tile in tiles:
             tile.close()
     return [tile.episode.result() for tile in tiles]
+
+
+def _lockstep(tiles, writer, progress: bool, start: float) -> None:
+    """Writes the tiles' frames side by side, then steps each episode not done, until all are
+    done; with progress, a progress line every 50 frames (start: time.monotonic() at the
+    start)."""
+    while True:
+        writer.write(np.hstack([tile.frame() for tile in tiles]))
+        if progress and writer.frames % 50 == 0:
+            _progress(writer.frames, tiles, start)
+        if all(tile.episode.done for tile in tiles):
+            return
+        for tile in tiles:
+            if not tile.episode.done:
+                tile.episode.step()
+
+
+def _interrupted(writer, path, progress: bool) -> KeyboardInterrupt:
+    """The KeyboardInterrupt for Ctrl-C during `compare`: its message says what `path` holds
+    (writer: the video.VideoWriter, None before it opened); ends the progress line."""
+    if progress and writer is not None and writer.frames >= 50:
+        sys.stderr.write("\n")
+    kept = writer is not None and writer.frames and path.exists()
+    return KeyboardInterrupt(
+        f"the video so far ({writer.frames} frames) is in {path}"
+        if kept
+        else f"no video written to {path}"
+    )
 
 
 def tile_size(tiles: int, gif: bool) -> tuple[int, int]:

@@ -131,28 +131,13 @@ class Pedestrians:
         self.goal = array("goal", goal, (n, 2), finite=True)
         self.pref_speed = _positive(pref_speed, "pref_speed", n)
         self.radius = _positive(radius, "radius", n)
-        walls = np.zeros((0, 4)) if walls is None else walls
-        self._walls = array("walls", walls, ("W", 4), finite=True)
-        flat = np.flatnonzero(np.hypot(*(self._walls[:, 2:] - self._walls[:, :2]).T) == 0)
-        if len(flat):
-            raise ValueError(f"walls {flat} have zero length: give segments x0, y0, x1, y1")
-        if not self._spec.sees_walls and len(self._walls):
-            others = [b for b in WALKING if BEHAVIOR.get(b).sees_walls]
-            raise ValueError(
-                f"{behavior} ignores walls: in a world with walls use one of {', '.join(others)}"
-            )
+        self._walls = _walls(walls, behavior)
         self._robot_radius = float(robot_radius)
         self._robot_visible = bool(robot_visible)
         self._next_goal, self._random, self._dt = next_goal, random, float(dt)
         self._pos = position.copy()
         self.z = position[:, 0] + 1j * position[:, 1]
-        to_goal = self.goal - position
-        moving = np.hypot(*self.velocity.T) > 0
-        self.theta = np.where(
-            moving,
-            np.arctan2(self.velocity[:, 1], self.velocity[:, 0]),
-            np.arctan2(to_goal[:, 1], to_goal[:, 0]),
-        )
+        self.theta = _headings(self.velocity, self.goal - position)
         self._max_speed = MAX_SPEED_FACTOR * self.pref_speed
         self._behaviors = None if self._spec.navground is None else self._navground_behaviors()
 
@@ -271,6 +256,30 @@ class Pedestrians:
 
 
 _NOBODY = (np.zeros((0, 2)), np.zeros(0))  # no robot among the pushing agents
+
+
+def _walls(walls, behavior) -> np.ndarray:
+    """walls (W, 4) segments x0, y0, x1, y1 (None: none) as float64, else a ValueError: a
+    segment of zero length, or walls for a behaviour that ignores them."""
+    walls = array("walls", np.zeros((0, 4)) if walls is None else walls, ("W", 4), finite=True)
+    flat = np.flatnonzero(np.hypot(*(walls[:, 2:] - walls[:, :2]).T) == 0)
+    if len(flat):
+        raise ValueError(f"walls {flat} have zero length: give segments x0, y0, x1, y1")
+    if not BEHAVIOR.get(behavior).sees_walls and len(walls):
+        others = [b for b in WALKING if BEHAVIOR.get(b).sees_walls]
+        raise ValueError(
+            f"{behavior} ignores walls: in a world with walls use one of {', '.join(others)}"
+        )
+    return walls
+
+
+def _headings(velocity, to_goal) -> np.ndarray:
+    """Headings (L,): along velocity (L, 2), or along to_goal (L, 2) where standing."""
+    return np.where(
+        np.hypot(*velocity.T) > 0,
+        np.arctan2(velocity[:, 1], velocity[:, 0]),
+        np.arctan2(to_goal[:, 1], to_goal[:, 0]),
+    )
 
 
 def _positive(value, name, rows):

@@ -109,18 +109,7 @@ def generate_crowd(
     bounds = map_bounds(map_size)
     start, goal = sample_start_goal(random, np.zeros((0, 3)), bounds, robot_radius)
     n = int(n_obstacles)
-    xy = random.uniform(bounds[:2], bounds[2:], size=(n, 2))
-    for _ in range(CROWD_REDRAWS):
-        near = np.hypot(*(xy - start[:2]).T) - obstacle_radius < CROWD_START_CLEARANCE
-        if not near.any():
-            break
-        xy[near] = random.uniform(bounds[:2], bounds[2:], size=(near.sum(), 2))
-    else:
-        raise ValueError(
-            f"obstacles of radius {obstacle_radius:g} m find no place {CROWD_START_CLEARANCE:g} "
-            f"m clear of the start on a {map_size[0]:g} x {map_size[1]:g} m map: lower "
-            "obstacle_radius"
-        )
+    xy = _clear_of_start(random, n, start[:2], bounds, obstacle_radius)
     heading = random.uniform(0.0, 2.0 * np.pi, size=n)
     speed = random.uniform(*speed_range, size=n)
     turn_rate = random.uniform(*turn_rate_range, size=n)
@@ -152,4 +141,19 @@ def generate_crowd(
         obstacle_model=crowd_obstacle_model(speed_range, turn_rate_range),
         behavior=behavior,
         **walkers,
+    )
+
+
+def _clear_of_start(random, n, start, bounds, radius) -> np.ndarray:
+    """n uniform centres (n, 2) in bounds (4,) whose discs of `radius` keep CROWD_START_CLEARANCE
+    from start (2,): the near ones redrawn, at most CROWD_REDRAWS times, else a ValueError."""
+    xy = random.uniform(bounds[:2], bounds[2:], size=(n, 2))
+    for _ in range(CROWD_REDRAWS):
+        near = np.hypot(*(xy - start).T) - radius < CROWD_START_CLEARANCE
+        if not near.any():
+            return xy
+        xy[near] = random.uniform(bounds[:2], bounds[2:], size=(near.sum(), 2))
+    raise ValueError(
+        f"obstacles of radius {radius:g} m find no place {CROWD_START_CLEARANCE:g} m clear of "
+        f"the start on a {bounds[2]:g} x {bounds[3]:g} m map: lower obstacle_radius"
     )

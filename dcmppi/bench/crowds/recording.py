@@ -44,6 +44,21 @@ def record(
         are recordings already), a period that is no whole number of control steps, or bad
         counts.
     """
+    params = _checked(task, task_params, episodes, period, seconds)
+    tracks, frame0 = [], 0
+    for e in range(episodes):
+        env = tasks.load(task, task_kwargs={**params, "random": environment_seed(base_seed, e)})
+        env.reset()
+        xy, present = _frames(env, task, period, seconds)
+        env.close()
+        tracks += _tracks(xy, present, frame0 + np.arange(len(xy)), period, len(tracks) + 1)
+        frame0 += len(xy) + 1
+    tracks.sort(key=lambda t: (t.frames[0], t.id))
+    return recordings.Recording(name, float(period), tuple(tracks))
+
+
+def _checked(task, task_params, episodes, period, seconds) -> dict:
+    """The task parameters (a new dict) of `record`'s arguments, else its ValueError."""
     if task == "replay":
         raise ValueError(
             "record: the replay task's people are recordings already; train on their files "
@@ -57,46 +72,48 @@ def record(
     for reserved in ("random", "noise"):
         if reserved in params:
             raise ValueError(f"record: {reserved} is set per episode; remove it")
-    tracks, frame0, next_id = [], 0, 1
-    for e in range(episodes):
-        env = tasks.load(task, task_kwargs={**params, "random": environment_seed(base_seed, e)})
-        env.reset()
-        dt = env.control_timestep()
-        stride = int(round(period / dt))
-        if stride < 1 or abs(stride * dt - period) > 1e-9:
-            raise ValueError(
-                f"record: period {period} s is no whole number of control steps of {dt:g} s"
-            )
-        start = np.asarray(env.task.world.moving, dtype=float).reshape(-1, 4)[:, :2]
-        if not len(start):
-            raise ValueError(
-                f"record: task {task} has no moving obstacles to record; tasks with pedestrians: "
-                + ", ".join(WITH_PEDESTRIANS)
-            )
-        present = [futures.obstacle_presence(env)]
-        xy = [start]
-        steps = int(round((seconds if seconds is not None else env.task.time_limit) / dt))
-        for k, now in enumerate(futures.obstacle_tracks(env, steps), start=1):
-            if k % stride == 0:
-                xy.append(np.asarray(now, dtype=float))
-                present.append(futures.obstacle_presence(env))
-        env.close()
-        xy, present = np.stack(xy), np.stack(present)  # (F, L, 2), (F, L)
-        frames = frame0 + np.arange(len(xy))
-        for row in range(xy.shape[1]):
-            for part in _runs(present[:, row]):
-                tracks.append(
-                    recordings.Track(
-                        next_id,
-                        frames[part] * float(recordings.FRAME_STEP),
-                        frames[part] * period,
-                        xy[part, row].copy(),
-                    )
-                )
-                next_id += 1
-        frame0 += len(xy) + 1
-    tracks.sort(key=lambda t: (t.frames[0], t.id))
-    return recordings.Recording(name, float(period), tuple(tracks))
+    return params
+
+
+def _frames(env, task, period, seconds):
+    """The centres (F, L, 2) and presence (F, L) of the moving obstacles of `env` (of `task`,
+    just reset) a frame every `period` s for `seconds` (None: the time limit), the first at the
+    reset; a ValueError where period is no whole number of control steps or nothing moves."""
+    dt = env.control_timestep()
+    stride = int(round(period / dt))
+    if stride < 1 or abs(stride * dt - period) > 1e-9:
+        raise ValueError(
+            f"record: period {period} s is no whole number of control steps of {dt:g} s"
+        )
+    start = np.asarray(env.task.world.moving, dtype=float).reshape(-1, 4)[:, :2]
+    if not len(start):
+        raise ValueError(
+            f"record: task {task} has no moving obstacles to record; tasks with pedestrians: "
+            + ", ".join(WITH_PEDESTRIANS)
+        )
+    xy, present = [start], [futures.obstacle_presence(env)]
+    steps = int(round((seconds if seconds is not None else env.task.time_limit) / dt))
+    for k, now in enumerate(futures.obstacle_tracks(env, steps), start=1):
+        if k % stride == 0:
+            xy.append(np.asarray(now, dtype=float))
+            present.append(futures.obstacle_presence(env))
+    return np.stack(xy), np.stack(present)
+
+
+def _tracks(xy, present, frames, period, first_id) -> list:
+    """A recordings.Track of each run (`_runs`) of frames in which a row is present, row by
+    row, ids from first_id on: xy (F, L, 2), present (F, L) and frames (F,) the frame numbers
+    of an episode."""
+    runs = [(row, part) for row in range(xy.shape[1]) for part in _runs(present[:, row])]
+    return [
+        recordings.Track(
+            first_id + i,
+            frames[part] * float(recordings.FRAME_STEP),
+            frames[part] * period,
+            xy[part, row].copy(),
+        )
+        for i, (row, part) in enumerate(runs)
+    ]
 
 
 def _runs(present) -> list:

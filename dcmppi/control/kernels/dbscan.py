@@ -37,7 +37,6 @@ import numba
 import numpy as np
 from numba.core import types
 from numba.extending import overload
-from sklearn.cluster import DBSCAN
 
 KD_TREE_MIN_SAMPLES = 12  # sklearn.neighbors: n // 2 <= 5 points use brute force
 KD_TREE_MAX_FEATURES = 15  # sklearn.neighbors: more features use brute force
@@ -75,6 +74,8 @@ def dbscan(X, eps, min_samples):
 
 
 def _sklearn(X, eps, min_samples):
+    from sklearn.cluster import DBSCAN  # the rare fallback: scikit-learn loads in 0.5 s
+
     return DBSCAN(eps=eps, min_samples=min_samples).fit(X).labels_.astype(np.intp)
 
 

@@ -38,7 +38,7 @@ import math
 
 import numba
 import numpy as np
-from scipy.stats import chi2
+from scipy.special import gammaincinv
 
 from dcmppi.control.kernels.dbscan import dbscan
 from dcmppi.control.kernels.projection import horizon_sums
@@ -56,7 +56,7 @@ COLLISION_GAP = 5.0  # DBSCAN radii between rollouts one colliding state apart
 def dbscan_radius(controls):
     """Default DBSCAN radius for `controls` perturbation features: the ball holding
     DBSCAN_SHARE of a standard normal in that many dimensions."""
-    return math.sqrt(chi2.ppf(DBSCAN_SHARE, controls))
+    return math.sqrt(2.0 * gammaincinv(controls / 2, DBSCAN_SHARE))  # chi2.ppf, as scipy.stats
 
 
 def mean_std(sigma, perturbation, N, correlation=0.0):

@@ -80,6 +80,9 @@ def test_shards_report_replay_and_a_mixed_resume(mine, capsys):
         gif.relative_to(mine / "out").as_posix() in (mine / "out" / "report.md").read_text()
         for gif in gifs
     )
+    page = (mine / "out" / "report.html").read_text()  # each GIF beside its episode viewer
+    assert all(f'<a href="{gif.relative_to(mine / "out").with_suffix(".html").as_posix()}">' in page
+               and gif.with_suffix(".html").is_file() for gif in gifs)  # fmt: skip
 
     replay = ["replay", "--db", "a.db", "--db", "b.db", "--label", "steady", "--env", "1"]
     assert cli.main(replay) == 0

@@ -1,4 +1,4 @@
-"""`dcmppi report`: tables, CSV and plots of one or several results databases."""
+"""`dcmppi report`: tables, CSV, plots and an HTML page of one or several results databases."""
 
 import sys
 
@@ -6,7 +6,12 @@ from dcmppi.cli.common import command
 
 
 def add_parser(subparsers, names: dict) -> None:
-    p = command(subparsers, "report", "tables, CSV and plots of a results database", run)
+    p = command(
+        subparsers,
+        "report",
+        "tables, CSV and plots of a results database, and report.html, a page of them all",
+        run,
+    )
     p.add_argument(
         "--db",
         action="append",
@@ -20,8 +25,8 @@ def add_parser(subparsers, names: dict) -> None:
         type=int,
         default=0,
         metavar="N",
-        help="replay the first N failures of each row and one success into GIFs linked from "
-        "report.md",
+        help="replay the first N failures of each row and one success into GIFs and episode "
+        "viewers (HTML) linked from the report",
     )
 
 
@@ -32,5 +37,6 @@ def run(args) -> int:
         raise ValueError(f"--gallery must be >= 0, got {args.gallery}")
     dbs = args.db or ["results/static.db"]
     print(write_report(dbs, args.out, plots=not args.no_plots, gallery=args.gallery))
-    print(f"\nwrote {args.out}/report.md and {args.out}/episodes.csv", file=sys.stderr)
+    out = args.out
+    print(f"\nwrote {out}/report.md, {out}/report.html and {out}/episodes.csv", file=sys.stderr)
     return 0

@@ -5,7 +5,10 @@
   side-by-side comparisons;
 - figures: the paper's Fig. 2 and 4 of one planning step; plots: the report's failure rates,
   controller times and paths; ekf: the EKF error plot; draw: the matplotlib helpers they share
-  (matplotlib is the optional extra `dcmppi[plots]`, imported when a plot is drawn).
+  (matplotlib is the optional extra `dcmppi[plots]`, imported when a plot is drawn);
+- html: self-contained HTML pages (tables, the report's text, the style and scripts of web/);
+  viewer: the episode viewer, a page that plays an episode in 2-D with the controller's plans,
+  rollouts and predicted futures; files: output paths checked before an episode runs for them.
 
 May import dcmppi.control and dcmppi.tasks; never dcmppi.bench (tests/test_architecture.py
 checks this). The benchmark computes the numbers (summaries, paths, filter errors) and passes

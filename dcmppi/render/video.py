@@ -27,6 +27,7 @@ import tempfile
 import weakref
 
 from dcmppi.render import CAMERAS
+from dcmppi.render.files import writable
 from dcmppi.tasks import _gl
 
 _gl.choose_backend()
@@ -114,29 +115,7 @@ def check_camera(camera: str) -> None:
 def check_path(path) -> pathlib.Path:
     """The video path, or a ValueError naming what is wrong with it (suffix, parent a file, a
     folder or file that cannot be written), before an episode is run for it."""
-    path = pathlib.Path(path)
-    if path.suffix.lower() not in (".mp4", ".gif"):
-        raise ValueError(f"video path must end in .mp4 or .gif, got {path.name!r}")
-    for parent in path.parents:
-        if parent.exists():
-            if not parent.is_dir():
-                raise ValueError(
-                    f"cannot write the video {path}: {parent} is a file, not a folder; "
-                    "choose a path in a folder"
-                )
-            try:  # a file can be made there (a read-only folder or file system, /proc, ...)
-                tempfile.TemporaryFile(dir=parent).close()
-            except OSError as e:
-                raise ValueError(
-                    f"cannot write the video {path}: {parent} takes no new file ({e.strerror}); "
-                    "choose another folder"
-                ) from None
-            break
-    if path.is_dir():
-        raise ValueError(f"cannot write the video {path}: it is a folder")
-    if path.exists() and not os.access(path, os.W_OK):
-        raise ValueError(f"cannot write the video {path}: the file is read-only")
-    return path
+    return writable(path, (".mp4", ".gif"), "video")
 
 
 def gif_stride(frames: int) -> int:

@@ -1,16 +1,18 @@
 """Episode traces, replay of recorded episodes, the failure gallery."""
 
+import base64
 import concurrent.futures as cf
 import json
 import multiprocessing
 import os
 import pathlib
+import re
 import sqlite3
 
 import numpy as np
 import pytest
 
-from dcmppi import tasks
+from dcmppi import cli, tasks
 from dcmppi.bench.episodes.runner import EpisodeSpec, decode_trace, encode_trace, run_episode
 from dcmppi.bench.experiments import Experiment
 from dcmppi.bench.results.database import ResultsDB
@@ -176,6 +178,29 @@ def test_replay_names_what_the_databases_hold(tmp_path):
         rp.replay([db], "dc", 0)
 
 
+def test_a_replay_writes_its_episode_viewer_and_bad_input_ends_in_one_line(tmp_path, capsys):
+    db = tmp_path / "r.db"
+    record(db, "crossing", rows=("dc",))
+    page = tmp_path / "dc.html"
+    r = rp.replay([db], "dc", 0, page=page)
+    assert r.reproduced and r.page == page  # reading the episode for the page changed nothing
+    data = json.loads(re.search(r"<script id=episode [^>]*>(.*?)</script>", page.read_text())[1])
+    pose = np.frombuffer(base64.b64decode(data["arrays"]["pose"]["b64"]), "<f4")
+    assert np.array_equal(pose.reshape(-1, 3), decode_trace(r.record["trace"]))
+    bad = {
+        "--env 5": f"{db}: no episode of row 'dc', environment 5; the database holds dc (noise "
+        "control)",
+        "--html x.htm": "page path must end in .html, got 'x.htm'",
+        f"--html {db}/x.html": f"cannot write the page {db}/x.html: {db} is a file, not a folder; "
+        "choose a path in a folder",
+    }
+    for options, error in bad.items():
+        argv = f"replay --db {db} --label dc --env 0 --html {tmp_path}/y.html {options}".split()
+        assert cli.main(argv) == 2
+        assert capsys.readouterr().err == f"dcmppi replay: error: {error}\n"
+    assert not (tmp_path / "y.html").exists()
+
+
 def test_gallery_files_of_labels_that_slug_alike_are_apart():
     taken = set()
     rows = [{"noise": "none", "label": label, "env_index": 0} for label in ("dc+wide", "dc wide")]
@@ -193,11 +218,15 @@ def test_gallery_renders_failures_and_one_success_through_the_replay(tmp_path, c
     out = rp.gallery([db, tmp_path / "s.db"], tmp_path / "report", 2)
     assert out == {
         ("control", "mppi"): [
-            (0, "time_limit", "gallery/control-mppi-env0.gif"),
-            (1, "time_limit", "gallery/control-mppi-env1.gif"),
+            (0, "time_limit", "gallery/control-mppi-env0.gif", "gallery/control-mppi-env0.html"),
+            (1, "time_limit", "gallery/control-mppi-env1.gif", "gallery/control-mppi-env1.html"),
         ],
-        ("control", "dc"): [(0, "goal", "gallery/control-dc-env0.gif")],
+        ("control", "dc"): [
+            (0, "goal", "gallery/control-dc-env0.gif", "gallery/control-dc-env0.html")
+        ],
     }
+    page = (tmp_path / "report" / "gallery" / "control-dc-env0.html").read_text()
+    assert "control / env 0 (seed" in page and "Replayed: reproduced (exact)" in page
     gif = tmp_path / "report" / "gallery" / "control-dc-env0.gif"
     import imageio.v3 as iio
 

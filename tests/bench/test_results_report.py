@@ -246,13 +246,16 @@ def test_a_complete_database_gets_no_notice(tmp_path):
     assert "| 2 | 50.0 | 1 (6) | 50.0 [" in line and "0 vs 0 discordant of 2, p = 1 |" in line
 
 
-def _complete_db(path, labels=("mppi", "clustered"), envs=range(2), result=None):
+def _complete_db(path, labels=("mppi", "clustered"), envs=range(2), result=None, collide=()):
+    """A database of `result` (default: the goal) in every environment, a collision in the
+    (label, environment) pairs of `collide`."""
     exp = load_experiment("static").select(2, labels, ("none",))
     db = ResultsDB(path, exp.config())
     db.begin_run(exp.to_dict())
     for label in labels:
         for i in envs:
-            db.record(("none", label, i), _spec(label), result or _result("goal"))
+            this = _result("collision") if (label, i) in collide else result or _result("goal")
+            db.record(("none", label, i), _spec(label), this)
     db.end_run()
     db.close()
 
@@ -431,12 +434,12 @@ def test_the_gallery_is_linked_beside_the_rows(tmp_path, monkeypatch):
 
     from dcmppi.bench.reports.report import write_report
 
-    _complete_db(tmp_path / "g.db")
+    _complete_db(tmp_path / "g.db", collide=[("mppi", 1)])
     calls = []
 
     def gallery(db_paths, out_dir, n):
         calls.append((list(db_paths), n))
-        return {("none", "mppi"): [(1, "collision", "gallery/mppi-1.gif")]}
+        return {("none", "mppi"): [(1, "collision", "gallery/mppi-1.gif", "gallery/mppi-1.html")]}
 
     replay = types.SimpleNamespace(gallery=gallery)
     monkeypatch.setitem(sys.modules, "dcmppi.bench.runs.replay", replay)
@@ -445,6 +448,45 @@ def test_the_gallery_is_linked_beside_the_rows(tmp_path, monkeypatch):
     md = (tmp_path / "out" / "report.md").read_text()
     line = next(x for x in md.splitlines() if x.startswith("| none | mppi |"))
     assert line.endswith("| [1 collision](gallery/mppi-1.gif) |")
+    tables = _html_tables(tmp_path / "out" / "report.html")
+    row = next(r for r in tables["outcomes"] if r[:2] == ["none", "mppi"])
+    gif = '<img src="gallery/mppi-1.gif" alt="env 1: collision" title="env 1: collision">'
+    assert row[-1] == f'<a href="gallery/mppi-1.html">{gif}</a>'  # the GIF opens its viewer
+    assert tables["failures"] == [
+        ["none", "mppi", "1", '<a href="gallery/mppi-1.html">1 (collision)</a>'],
+        ["none", "clustered", "0", ""],
+    ]
+
+
+def _html_tables(path) -> dict:
+    """{data-table: rows of cells (their inner HTML)} of the tables of an HTML page."""
+    text = path.read_text()
+    tables = {}
+    for name, body in re.findall(r'data-table="(\w+)".*?<tbody>(.*?)</tbody>', text, re.S):
+        rows = re.findall(r"<tr>(.*?)</tr>", body, re.S)
+        tables[name] = [re.findall(r"<td[^>]*>(.*?)</td>", row, re.S) for row in rows]
+    return tables
+
+
+def test_the_html_report_holds_every_table_of_the_markdown_one(tmp_path):
+    from dcmppi.bench.reports.report import write_report
+
+    _complete_db(tmp_path / "h.db", labels=("mppi", "clustered", "tube"), envs=range(3))
+    write_report(tmp_path / "h.db", tmp_path / "out", plots=False)
+    md = (tmp_path / "out" / "report.md").read_text()
+    tables = _html_tables(tmp_path / "out" / "report.html")
+    names = ["outcomes", "failures", "metrics", "diagnostics", "time"]  # no smoothness recorded
+    assert list(tables) == names
+    md_tables = re.findall(r"((?:^\|.*\n)+)", md, re.M)
+    assert len(md_tables) == len(names) - 1  # the failures are the page's own
+    for name, text in zip([n for n in names if n != "failures"], md_tables, strict=True):
+        lines = text.splitlines()[2:]
+        assert len(tables[name]) == len(lines) == 3, name
+        cells = [re.sub(r"<[^>]+>", "", c) for c in tables[name][0]]  # the intervals' spans
+        assert lines[0] == "| " + " | ".join(cells) + " |", name
+    assert "Configuration: <code>" in (tmp_path / "out" / "report.html").read_text()
+    with pytest.raises(ValueError, match=r"^cannot write the report into .*/h.db/out: Not a dir"):
+        write_report(tmp_path / "h.db", tmp_path / "h.db" / "out", plots=False)
 
 
 def test_the_paths_plot_reruns_only_episodes_that_finished():

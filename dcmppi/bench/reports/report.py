@@ -1,4 +1,5 @@
-"""Reports of a results database: paper-style tables, diagnostics, CSV, plots.
+"""Reports of a results database: paper-style tables, diagnostics, CSV, plots, and all of them
+on one HTML page (dcmppi.bench.reports.html), its tables made from the same `Table`s.
 
 Statistics: failure rates with 95 % Wilson score intervals; the crowd-navigation field's
 metrics (success, collisions with pedestrians or static obstacles, timeouts, time to goal, path
@@ -21,11 +22,13 @@ import csv
 import dataclasses
 import datetime
 import os
+import tempfile
 from pathlib import Path
 
 from dcmppi.bench.episodes import columns
 from dcmppi.bench.episodes.metrics import SIDE_DEADBAND
 from dcmppi.bench.experiments import Experiment, Row
+from dcmppi.bench.reports import html
 from dcmppi.bench.results.database import TABLE_COLUMNS, ResultsDB, _canonical, writer_alive
 from dcmppi.bench.results.provenance import differences, short
 from dcmppi.bench.results.stats import (
@@ -46,6 +49,7 @@ from dcmppi.bench.results.stats import (
     smoothness,
     summarize,
 )
+from dcmppi.render.html import Table
 from dcmppi.tasks.worlds.base import GOAL_TOLERANCE
 
 METRICS_NOTE = (
@@ -146,24 +150,24 @@ def groups(rows: list[dict], exp: Experiment) -> list[tuple[str, str]]:
     return [(n, c) for n in noises for c in labels if (n, c) in present]
 
 
-def table(rows: list[dict], exp: Experiment, links: dict | None = None) -> str:
-    """The Markdown table in the layout of the paper's Table I, with goal, left-map and
-    time-limit counts and McNemar against the reference row; '-' for a row of errors only.
-    `links` {(noise, label): Markdown} adds a column of replays (report.md's gallery)."""
+def table(rows: list[dict], exp: Experiment, links: dict | None = None) -> Table:
+    """The table in the layout of the paper's Table I, with goal, left-map and time-limit counts
+    and McNemar against the reference row; '-' for a row of errors only. `links`
+    {(noise, label): cell} adds a column of replays (the gallery's)."""
     stats = summarize(rows)
     ref = exp.reference
-    head = (
-        "| Noise | Row | Episodes | Goal % | Collisions (paper) | Failure % [95 % CI] (paper) "
-        "| Left map | Time limit | Controller ms/step (paper) |"
-    )
-    rule = "|---|---|---:|---:|---:|---|---:|---:|---:|"
+    head = [
+        "Noise", "Row", "Episodes", "Goal %", "Collisions (paper)", "Failure % [95 % CI] (paper)",
+        "Left map", "Time limit", "Controller ms/step (paper)",
+    ]  # fmt: skip
+    align = "llrrrlrrr"
     if ref:
-        head += f" Collisions vs {ref}: McNemar |"
-        rule += "---|"
+        head.append(f"Collisions vs {ref}: McNemar")
+        align += "l"
     if links is not None:
-        head += " Replays |"
-        rule += "---|"
-    lines = [head, rule]
+        head.append("Replays")
+        align += "l"
+    lines = []
     for noise, label in groups(rows, exp):
         s = stats[(noise, label)]
         paper = exp.paper(noise, label)
@@ -174,27 +178,26 @@ def table(rows: list[dict], exp: Experiment, links: dict | None = None) -> str:
             goal, failure = f"{s['goal_pct']:.1f}", f"{s['failure_pct']:.1f} [{lo:.1f}, {hi:.1f}]"
         else:  # errors only
             goal = failure = "-"
-        line = (
-            f"| {noise} | {label} | {s['episodes']}{errors} | {goal} | "
-            f"{s['collisions']} ({fmt(paper.collisions)}) | "
-            f"{failure} ({fmt(paper.failure_pct)}) | "
-            f"{s['left_map']} | {s['time_limit']} | {ms} ({fmt(paper.ms_per_step)}) |"
-        )
+        line = [
+            noise, label, f"{s['episodes']}{errors}", goal,
+            f"{s['collisions']} ({fmt(paper.collisions)})",
+            f"{failure} ({fmt(paper.failure_pct)})",
+            str(s["left_map"]), str(s["time_limit"]), f"{ms} ({fmt(paper.ms_per_step)})",
+        ]  # fmt: skip
         if ref:
             m = paired(rows, noise, label, ref) if label != ref else None
-            vs = (
+            line.append(
                 f"{m['only_a']} vs {m['only_b']} discordant of {m['pairs']}, p = {m['p']:.3g}"
                 if m
                 else ""
             )
-            line += f" {vs} |"
         if links is not None:
-            line += f" {links.get((noise, label), '')} |"
+            line.append(links.get((noise, label), ""))
         lines.append(line)
-    return "\n".join(lines)
+    return Table(head, align, lines, "outcomes")
 
 
-def score_table(rows: list[dict], exp: Experiment) -> str:
+def score_table(rows: list[dict], exp: Experiment) -> Table | str:
     """BARN's metrics per (noise, row): success % with its Wilson interval and the published
     success rate (100 - the paper's failure %), the mean navigation score with its bootstrap
     interval, and the paired score difference to the reference row. '' without scores."""
@@ -203,14 +206,12 @@ def score_table(rows: list[dict], exp: Experiment) -> str:
     if not scored:
         return ""
     ref = exp.reference
-    head = (
-        "| Noise | Row | Episodes | Success % [95 % CI] (published) | Navigation score [95 % CI] |"
-    )
-    rule = "|---|---|---:|---|---|"
+    head = [
+        "Noise", "Row", "Episodes", "Success % [95 % CI] (published)", "Navigation score [95 % CI]",
+    ]  # fmt: skip
     if ref:
-        head += f" Score - {ref} [95 % CI] |"
-        rule += "---|"
-    lines = [head, rule]
+        head.append(f"Score - {ref} [95 % CI]")
+    lines = []
     for noise, label in scored:
         s = stats[(noise, label)]
         paper = exp.paper(noise, label).failure_pct
@@ -220,24 +221,24 @@ def score_table(rows: list[dict], exp: Experiment) -> str:
         episodes = str(s["scored"])
         if s["scored"] < s["episodes"]:
             episodes += f" of {s['episodes']}"
-        line = (
-            f"| {noise} | {label} | {episodes} | {s['goal_pct']:.1f} [{lo:.1f}, {hi:.1f}] "
-            f"({published}) | {s['nav_score']:.3f} [{slo:.3f}, {shi:.3f}] |"
-        )
+        line = [
+            noise, label, episodes, f"{s['goal_pct']:.1f} [{lo:.1f}, {hi:.1f}] ({published})",
+            f"{s['nav_score']:.3f} [{slo:.3f}, {shi:.3f}]",
+        ]  # fmt: skip
         if ref:
             d = paired_scores(rows, noise, label, ref) if label != ref else None
-            line += f" {d['diff']:+.3f} [{d['ci'][0]:+.3f}, {d['ci'][1]:+.3f}] |" if d else " |"
+            line.append(f"{d['diff']:+.3f} [{d['ci'][0]:+.3f}, {d['ci'][1]:+.3f}]" if d else "")
         lines.append(line)
-    return "\n".join(lines)
+    return Table(head, "llr" + "l" * (len(head) - 3), lines, "scores")
 
 
-def metrics_table(rows: list[dict], exp: Experiment) -> str:
+def metrics_table(rows: list[dict], exp: Experiment) -> Table:
     """The field's metrics per (noise, row) with 95 % intervals (see `field_metrics`); '-' for
     the metrics that do not apply."""
-    return _interval_table(field_metrics(rows), rows, exp, METRICS_COLUMNS)
+    return _interval_table(field_metrics(rows), rows, exp, METRICS_COLUMNS, "metrics")
 
 
-def smoothness_table(rows: list[dict], exp: Experiment) -> str:
+def smoothness_table(rows: list[dict], exp: Experiment) -> Table | str:
     """Smoothness per (noise, row) with 95 % intervals (see `smoothness`): the table's declared
     columns and the task blocked's commitment
     columns, the path's and the plans', where episodes record them; '' where no episode records
@@ -252,34 +253,34 @@ def smoothness_table(rows: list[dict], exp: Experiment) -> str:
         shown += COMMIT_COLUMNS
     if any(s["planned"] for s in stats.values()):
         shown += PLAN_COMMIT_COLUMNS
-    return _interval_table(stats, rows, exp, shown)
+    return _interval_table(stats, rows, exp, shown, "smoothness")
 
 
-def _interval_table(stats: dict, rows: list[dict], exp: Experiment, columns) -> str:
+def _interval_table(stats: dict, rows: list[dict], exp: Experiment, columns, name: str) -> Table:
     """One line per (noise, row) of `stats` ({(noise, label): {"episodes", key: interval}}):
     its episodes and each of `columns` (header, key, digits) as 'value [lo, hi]'."""
-    head = "| Noise | Row | Episodes | " + " | ".join(h for h, _, _ in columns) + " |"
-    lines = [head, "|---|---|---:|" + "---|" * len(columns)]
+    lines = []
     for noise, label in groups(rows, exp):
         s = stats.get((noise, label))
         if s is None:  # errors only
             continue
         cells = [_interval(s[key], digits) for _, key, digits in columns]
-        lines.append(f"| {noise} | {label} | {s['episodes']} | {' | '.join(cells)} |")
-    return "\n".join(lines)
+        lines.append([noise, label, str(s["episodes"]), *cells])
+    head = ["Noise", "Row", "Episodes", *(h for h, _, _ in columns)]
+    return Table(head, "llr" + "l" * len(columns), lines, name)
 
 
-def replay_table(rows: list[dict], exp: Experiment) -> str:
+def replay_table(rows: list[dict], exp: Experiment) -> Table | str:
     """Replays per (noise, row, scene) (see `replay_scenes`): outcomes, path and time against
     the replaced person's, frozen timeouts; '' without replays."""
     stats = replay_scenes(rows)
     if not stats:
         return ""
-    head = (
-        "| Noise | Row | Scene | Episodes | Success % | Collisions % | Timeouts % | "
-        "Path / human | Time / human | Frozen near goal % | Timeouts elsewhere % |"
-    )
-    lines = [head, "|---|---|---|---:|---|---|---|---|---|---|---|"]
+    head = [
+        "Noise", "Row", "Scene", "Episodes", "Success %", "Collisions %", "Timeouts %",
+        "Path / human", "Time / human", "Frozen near goal %", "Timeouts elsewhere %",
+    ]  # fmt: skip
+    lines = []
     for noise, label in groups(rows, exp):
         scenes = scene_order(sc for n, c, sc in stats if (n, c) == (noise, label))
         if len(scenes) == 2:  # one scene: its "all" repeats it
@@ -290,11 +291,11 @@ def replay_table(rows: list[dict], exp: Experiment) -> str:
             cells += [_interval(s[k], 2) for k in ("path_ratio", "time_ratio")]
             cells += [_interval(s[k], 1) for k in ("frozen", "elsewhere")]
             name = f"**{scene}**" if scene == ALL_SCENES else scene
-            lines.append(f"| {noise} | {label} | {name} | {s['episodes']} | {' | '.join(cells)} |")
+            lines.append([noise, label, name, str(s["episodes"]), *cells])
     for scene, (n, hits) in own_tracks(rows, exp).items():
         cells = ["-", _interval(hits, 1) if hits else "-", *["-"] * 5]
-        lines.append(f"| | {OWN_TRACK} | {scene} | {n} | {' | '.join(cells)} |")
-    return "\n".join(lines)
+        lines.append(["", OWN_TRACK, scene, str(n), *cells])
+    return Table(head, "lllr" + "l" * 7, lines, "replay")
 
 
 OWN_TRACK = "replaced person, own track"
@@ -334,17 +335,16 @@ def _interval(x, digits: int) -> str:
     return f"{value:.{digits}f} [{lo:.{digits}f}, {hi:.{digits}f}]"
 
 
-def diagnostics_table(rows: list[dict], exp: Experiment) -> str:
+def diagnostics_table(rows: list[dict], exp: Experiment) -> Table:
     """The diagnostics table's declared columns per (noise, row) (see `diagnostics`): '-' where
     not recorded (controllers that record none, an older database)."""
     stats = diagnostics(rows)
-    head = "| Noise | Row | " + " | ".join(h for h, _, _ in DIAGNOSTICS_COLUMNS) + " |"
-    lines = [head, "|---|---|" + "---:|" * len(DIAGNOSTICS_COLUMNS)]
+    lines = []
     for noise, label in groups(rows, exp):
         s = stats.get((noise, label), {})
-        cells = [_num(s.get(key), digits) for _, key, digits in DIAGNOSTICS_COLUMNS]
-        lines.append(f"| {noise} | {label} | {' | '.join(cells)} |")
-    return "\n".join(lines)
+        lines.append([noise, label, *(_num(s.get(key), d) for _, key, d in DIAGNOSTICS_COLUMNS)])
+    head = ["Noise", "Row", *(h for h, _, _ in DIAGNOSTICS_COLUMNS)]
+    return Table(head, "ll" + "r" * len(DIAGNOSTICS_COLUMNS), lines, "diagnostics")
 
 
 def _notes(text: str, table: str) -> str:
@@ -358,15 +358,15 @@ def _num(x, digits: int) -> str:
     return "-" if x is None else f"{x:.{digits}f}"
 
 
-def speed_table(rows: list[dict], exp: Experiment) -> str:
+def speed_table(rows: list[dict], exp: Experiment) -> Table:
     """Where an episode's wall time goes, per row: ms per control step in the controller, in
     env.step (MuJoCo physics and the task) and elsewhere (environment construction,
     observation handling, diagnostics, bookkeeping), and seconds per episode."""
-    lines = [
-        "| Row | Episodes | Steps/episode | Controller ms/step | env.step ms/step | "
-        "Other ms/step | Wall s/episode |",
-        "|---|---:|---:|---:|---:|---:|---:|",
-    ]
+    head = [
+        "Row", "Episodes", "Steps/episode", "Controller ms/step", "env.step ms/step",
+        "Other ms/step", "Wall s/episode",
+    ]  # fmt: skip
+    lines = []
     for label in row_order({r["label"] for r in rows}, [row.label for row in exp.rows]):
         ok = [r for r in rows if r["label"] == label and r["status"] == "ok"]
         steps = sum(r["steps"] for r in ok)
@@ -375,11 +375,11 @@ def speed_table(rows: list[dict], exp: Experiment) -> str:
         ctrl, env = per_step(ok, "ctrl_ms_mean"), per_step(ok, "env_ms_mean")
         wall = sum(r["wall_s"] for r in ok)
         other = 1e3 * wall / steps - ctrl - env
-        lines.append(
-            f"| {label} | {len(ok)} | {steps / len(ok):.0f} | {ctrl:.3f} | {env:.3f} | "
-            f"{other:.3f} | {wall / len(ok):.2f} |"
-        )
-    return "\n".join(lines)
+        lines.append([
+            label, str(len(ok)), f"{steps / len(ok):.0f}", f"{ctrl:.3f}", f"{env:.3f}",
+            f"{other:.3f}", f"{wall / len(ok):.2f}",
+        ])  # fmt: skip
+    return Table(head, "l" + "r" * 6, lines, "time")
 
 
 def notice(rows: list[dict], exp: Experiment, writers: list[tuple[str, dict]]) -> str:
@@ -507,13 +507,13 @@ def _combine(first: Path, config: dict, path: Path, other: dict) -> dict:
     return {**config, "rows": {**b, **a}}
 
 
-def provenance(data: Loaded) -> tuple[str, list[str], str]:
+def provenance(data: Loaded) -> tuple[str, list[str], list]:
     """(the terminal's provenance line, report.md's Provenance section, the notice that the
-    rows were recorded under several conditions ('' when not))."""
+    rows were recorded under several conditions and its table of versions ([] when not))."""
     recorded = [run for run in data.runs if run["provenance"] is not None]
     if not recorded:
         line = "Provenance: not recorded (rows written before dcmppi recorded it, or without it)"
-        return line, ["## Provenance", "", line[len("Provenance: ") :].capitalize() + "."], ""
+        return line, ["## Provenance", "", line[len("Provenance: ") :].capitalize() + "."], []
     name = _run_names(data)
     latest = recorded[-1]["provenance"]
     libs = ", ".join(f"{k} {v}" for k, v in latest["libraries"].items() if v)
@@ -562,9 +562,9 @@ def _run_line(run: dict, name: dict) -> str:
     )
 
 
-def _mixed(data: Loaded, recorded: list[dict], name: dict) -> str:
-    """The notice, with a table of the versions per row, that the rows were recorded under
-    several conditions (distinct provenances, or none recorded for some); '' when not."""
+def _mixed(data: Loaded, recorded: list[dict], name: dict) -> list:
+    """The notice and its table of the versions per row that the rows were recorded under
+    several conditions (distinct provenances, or none recorded for some); [] when not."""
     conditions = []  # distinct provenances of the runs that own rows, in the order of the runs
     state = {}  # (source, run_id) -> index into conditions
     owning = {(r["source"], r["run_id"]) for r in data.rows}
@@ -577,7 +577,7 @@ def _mixed(data: Loaded, recorded: list[dict], name: dict) -> str:
         state[(run["source"], run["run_id"])] = found
     unknown = [r for r in data.rows if (r["source"], r["run_id"]) not in state]
     if len(conditions) + bool(unknown) <= 1:
-        return ""
+        return []
     what = differences(conditions[0], conditions[-1]) if len(conditions) > 1 else []
     mixed = (
         f"**Mixed**: these rows were recorded under {len(conditions) + bool(unknown)} different "
@@ -587,10 +587,10 @@ def _mixed(data: Loaded, recorded: list[dict], name: dict) -> str:
         + (f": {'; '.join(what[:3])}" if what else "")
         + ". The versions per row:"
     )
-    return mixed + "\n\n" + "\n".join(_versions_per_row(data, name))
+    return [mixed, _versions_per_row(data, name)]
 
 
-def _versions_per_row(data: Loaded, name: dict) -> list[str]:
+def _versions_per_row(data: Loaded, name: dict) -> Table:
     """The table of the runs (code, episodes) that recorded each row's episodes."""
     per_row = {}
     for r in data.rows:
@@ -599,14 +599,14 @@ def _versions_per_row(data: Loaded, name: dict) -> list[str]:
         per_row.setdefault(key, {}).setdefault(run, 0)
         per_row[key][run] += 1
     by_run = {(run["source"], run["run_id"]): run["provenance"] for run in data.runs}
-    lines = ["| Noise | Row | Runs: code (episodes) |", "|---|---|---|"]
+    lines = []
     for noise, label in groups(data.rows, data.exp):
         cells = [
             f"{name.get(run, 'no run')}: {short(by_run.get(run))} ({count})"
             for run, count in sorted(per_row[(noise, label)].items(), key=str)
         ]
-        lines.append(f"| {noise} | {label} | {'; '.join(cells)} |")
-    return lines
+        lines.append([noise, label, "; ".join(cells)])
+    return Table(["Noise", "Row", "Runs: code (episodes)"], "lll", lines, "versions")
 
 
 def _machine(prov: dict) -> str:
@@ -638,23 +638,24 @@ def errors_section(rows: list[dict]) -> list[str]:
 
 
 def write_report(db_paths, out_dir: str | Path, plots: bool = True, gallery: int = 0) -> str:
-    """Write report.md, episodes.csv and the PNG plots into out_dir; return the text shown
-    on the terminal (notices, tables, provenance).
+    """Write report.md, report.html, episodes.csv and the PNG plots into out_dir; return the
+    text shown on the terminal (notices, tables, provenance).
 
     db_paths: a database, or a list of databases of one configuration (shards), merged.
     gallery: with N > 0, the first N failures of each row and one success are replayed into
-      GIFs (dcmppi.bench.runs.replay.gallery) linked from report.md beside the row's numbers.
+      GIFs and episode viewers (dcmppi.bench.runs.replay.gallery) linked from the report beside
+      the row's numbers.
     """
     data = load(db_paths)
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    _writable(out)
     with open(out / "episodes.csv", "w", newline="") as f:
         writer_csv = csv.DictWriter(f, fieldnames=TABLE_COLUMNS, extrasaction="ignore")
         writer_csv.writeheader()
         writer_csv.writerows(data.rows)
     prov_line, prov_md, mixed = provenance(data)
-    notices = (notice(data.rows, data.exp, data.writers), _conflicts(data.conflicts), mixed)
-    warning = "\n\n".join(p for p in notices if p)
+    notices = (notice(data.rows, data.exp, data.writers), _conflicts(data.conflicts), *mixed)
+    warning = [p for p in notices if p]
     tables = {
         "scores": score_table(data.rows, data.exp),
         "metrics": metrics_table(data.rows, data.exp),
@@ -663,16 +664,33 @@ def write_report(db_paths, out_dir: str | Path, plots: bool = True, gallery: int
         "diagnostics": diagnostics_table(data.rows, data.exp),
     }
     text = _terminal(data, tables, warning, prov_line)
-    links = _gallery(data.paths, out, gallery) if gallery > 0 else None
-    md = _markdown(data, tables, warning, links) + [*prov_md, "", f"Configuration: `{data.config}`"]
+    clips = _gallery(data.paths, out, gallery) if gallery > 0 else None
+    tail = [*prov_md, "", f"Configuration: `{data.config}`"]
     finished = [r for r in data.rows if r["status"] == "ok"]
     if plots and finished:  # rows of errors only get no plot
         from dcmppi.bench.reports import plots as plotting
 
         for name in plotting.report_plots(finished, data.exp, out):
-            md += ["", f"![{name}]({name})"]
-    (out / "report.md").write_text("\n".join(md) + "\n")
+            tail += ["", f"![{name}]({name})"]
+    links = None if clips is None else _links(clips)
+    (out / "report.md").write_text("\n".join(_markdown(data, tables, warning, links) + tail) + "\n")
+    failures = html.failures_table(data.rows, groups(data.rows, data.exp), clips)
+    note = html.FAILURES_NOTE.format(db=data.paths[0])
+    links = None if clips is None else html.replay_cells(clips)
+    page = _markdown(data, tables, warning, links, ["## Failures", "", failures, "", note, ""])
+    html.write(out / "report.html", page + tail, f"dcmppi report: {data.exp.name}")
     return text
+
+
+def _writable(out: Path) -> None:
+    """Make the folder `out`, or a ValueError naming why it cannot take the report."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        tempfile.TemporaryFile(dir=out).close()
+    except OSError as e:
+        raise ValueError(
+            f"cannot write the report into {out}: {e.strerror}; choose another --out"
+        ) from None
 
 
 def _conflicts(conflicts: list[str]) -> str:
@@ -687,7 +705,7 @@ def _conflicts(conflicts: list[str]) -> str:
     )
 
 
-def _terminal(data: Loaded, tables: dict, warning: str, prov_line: str) -> str:
+def _terminal(data: Loaded, tables: dict, warning: list, prov_line: str) -> str:
     """The text shown on the terminal: notices, the tables, the errors' count, provenance."""
     n_errors = sum(r["status"] == "error" for r in data.rows)
     errors_line = (
@@ -697,7 +715,7 @@ def _terminal(data: Loaded, tables: dict, warning: str, prov_line: str) -> str:
         else ""
     )
     parts = (
-        warning,
+        *warning,
         table(data.rows, data.exp),
         tables["metrics"],
         tables["scores"],
@@ -711,18 +729,26 @@ def _terminal(data: Loaded, tables: dict, warning: str, prov_line: str) -> str:
 
 
 def _gallery(paths: list[Path], out: Path, n: int) -> dict:
-    """GIFs of the first `n` failures of each row and one success: {key: markdown links}."""
+    """The gallery's GIFs and episode viewers of the first `n` failures of each row and one
+    success (dcmppi.bench.runs.replay.gallery)."""
     from dcmppi.bench.runs.replay import gallery
 
-    found = gallery(paths, out, n)
+    return gallery(paths, out, n)
+
+
+def _links(clips: dict) -> dict:
+    """{(noise, label): report.md's links to the gallery's GIFs of the row}."""
     return {
-        key: " ".join(f"[{index} {outcome}]({gif})" for index, outcome, gif in clips)
-        for key, clips in found.items()
+        key: " ".join(f"[{index} {outcome}]({gif})" for index, outcome, gif, _ in entries)
+        for key, entries in clips.items()
     }
 
 
-def _markdown(data: Loaded, tables: dict, warning: str, links: dict | None) -> list[str]:
-    """report.md's lines up to the provenance: title, notices, the tables and their notes."""
+def _markdown(
+    data: Loaded, tables: dict, warning: list, links: dict | None, after: list = ()
+) -> list:
+    """report.md's lines up to the provenance: title, notices, the tables and their notes.
+    links: the main table's Replays column (`table`); after: lines after its note."""
     rows, exp = data.rows, data.exp
     sources = ", ".join(f"`{p}`" for p in data.paths)
     several = len(data.paths) > 1
@@ -735,11 +761,12 @@ def _markdown(data: Loaded, tables: dict, warning: str, links: dict | None) -> l
         "",
         *([exp.description, ""] if exp.description else []),
         *([f"Merged from {len(data.paths)} databases: {sources}.", ""] if several else []),
-        *([warning, ""] if warning else []),
+        *(x for part in warning for x in (part, "")),
         table(rows, exp, links),
         "",
         _table_note(exp, links is not None),
         "",
+        *after,
         "## Navigation metrics",
         "",
         tables["metrics"],
@@ -773,7 +800,7 @@ def _table_note(exp: Experiment, replays: bool) -> str:
         f"this row / only the reference collided. Paper figures in parentheses. {exp.paper_note}"
         + (
             " Replays: GIFs of the first failures of each row and one success (environment, "
-            "outcome)."
+            "outcome), each beside its episode viewer (the .html of its name)."
             if replays
             else ""
         )

@@ -3,6 +3,7 @@ whether it reproduces the record; render a gallery of failures through the repla
 
     r = replay(["r.db"], "dc", 3)                  # the row "dc", environment 3
     print(r.message); r.reproduced                 # outcome, steps, final pose, first departure
+    replay(["r.db"], "dc", 3, page="dc-3.html")    # and its episode viewer (dcmppi.render.viewer)
     gallery(["r.db"], "report", 3)                 # the first 3 failures of each row, 1 success
 
 An episode is deterministic given its spec, so the comparison is exact: the outcome and step
@@ -41,7 +42,8 @@ class Replay:
     reproduced: the rerun matches the record (outcome, steps, final pose, trace; see the module
     docstring); message: a few lines saying so, with the first departing control instant if
     not; record: the database row; result: the rerun's `run_episode` dict ({"error": ...} if
-    it raised); departs: the first control instant whose pose differs (None: none found).
+    it raised); departs: the first control instant whose pose differs (None: none found);
+    page: the episode viewer's path where one was written.
     """
 
     reproduced: bool
@@ -49,11 +51,13 @@ class Replay:
     record: dict
     result: dict
     departs: int | None = None
+    page: Path | None = None
 
 
 def replay(
     db_paths, label: str, env_index: int, noise: str | None = None, video=None,
     camera: str = "scene", progress: bool = False, size: tuple[int, int] | None = None,
+    page=None,
 ) -> Replay:  # fmt: skip
     """Rerun episode (noise, label, env_index) of the databases `db_paths` and compare it with
     its record.
@@ -65,12 +69,14 @@ def replay(
       noise: the noise profile; None: the only one the row has in that environment.
       video: optional .mp4 or .gif path: the rerun is rendered there with the controller's
         overlay (dcmppi.render.recording); camera, progress and size (width, height) go to it.
+      page: optional .html path: the rerun's episode viewer (dcmppi.render.viewer) is written
+        there, with the replay's verdict.
     Raises:
       ValueError: no such episode (the message lists what the databases hold), or a row whose
         recorded parameters are not those its configuration gives.
     """
     record, config, recorded_on = _find(_paths(db_paths), label, int(env_index), noise)
-    replayed = _replay(record, config, video, camera, progress, size)
+    replayed = _replay(record, config, video, camera, progress, size, page)
     if replayed.reproduced or recorded_on is None or recorded_on == (here := kernels()):
         return replayed
     return dataclasses.replace(
@@ -81,12 +87,13 @@ def replay(
 
 
 def gallery(db_paths, out_dir, n: int, camera: str = "scene") -> dict:
-    """GIFs of the first `n` failures (by environment index) of each row and of its first
-    success, rendered through the replay into out_dir/gallery/.
+    """GIFs and episode viewer pages of the first `n` failures (by environment index) of each
+    row and of its first success, made through the replay into out_dir/gallery/.
 
     Returns:
-      {(noise, label): [(env_index, recorded outcome, GIF path relative to out_dir), ...]},
-      failures first. A replay that does not reproduce its record is reported on stderr.
+      {(noise, label): [(env_index, recorded outcome, GIF path, page path), ...]}, failures
+      first, the paths relative to out_dir. A replay that does not reproduce its record is
+      reported on stderr.
     """
     out_dir = Path(out_dir)
     rows, source = _all_rows(_paths(db_paths))
@@ -105,19 +112,22 @@ def gallery(db_paths, out_dir, n: int, camera: str = "scene") -> dict:
     for key, picks in chosen.items():
         entries = []
         for row in picks + ([successes[key]] if key in successes else []):
-            relative = Path("gallery") / _gif_name(row, names)
+            gif = Path("gallery") / _gif_name(row, names)
+            page = gif.with_suffix(".html")
             record, config, _ = _find(
                 [source[id(row)]], row["label"], row["env_index"], row["noise"]
             )
-            done = _replay(record, config, out_dir / relative, camera, False, GALLERY_SIZE)
+            done = _replay(
+                record, config, out_dir / gif, camera, False, GALLERY_SIZE, out_dir / page
+            )
             if not done.reproduced:
                 print(f"gallery: {done.message.splitlines()[0]}", file=sys.stderr)
-            entries.append((row["env_index"], row["outcome"], relative.as_posix()))
+            entries.append((row["env_index"], row["outcome"], gif.as_posix(), page.as_posix()))
         out[key] = entries
     return out
 
 
-def _replay(record, config, video, camera, progress, size) -> Replay:
+def _replay(record, config, video, camera, progress, size, page=None) -> Replay:
     from dcmppi.bench.runs.execution import error_message
 
     spec = _spec(record, config)
@@ -129,22 +139,49 @@ def _replay(record, config, video, camera, progress, size) -> Replay:
             "its time limit); a replay runs in this process, so it does not rerun it"
         )
         return Replay(False, message, record, {}, None)
+    viewer = None
+    if page is not None:
+        from dcmppi.render.viewer import Viewer
+
+        viewer = Viewer()
     try:
         if video is None:
-            result = run_episode(spec)
+            result = run_episode(spec, on_step=viewer)
         else:
             from dcmppi.render.recording import record_episode
 
             width, height = size or (None, None)
+            episode = Episode(spec) if viewer is None else _Watched(Episode(spec), viewer)
             result = record_episode(
-                Episode(spec), video, camera, width=width, height=height, progress=progress,
+                episode, video, camera, width=width, height=height, progress=progress,
                 legend=size is None,
             )  # fmt: skip
     except KeyboardInterrupt:
         raise
     except BaseException as e:  # noqa: BLE001 - an error row is reproduced by the same error
         result = {"error": error_message(e)}
-    return compare(record, result)
+    replayed = compare(record, result)
+    if viewer is None or viewer.world is None:  # none asked, or the episode raised at its start
+        return replayed
+    title, _, verdict = replayed.message.partition(": ")
+    viewer.write(page, title, f"Replayed: {verdict}")
+    return dataclasses.replace(replayed, page=Path(page))
+
+
+class _Watched:
+    """An episode that shows itself to `watch` after its reset and after every step, as
+    run_episode's on_step (for a video's episode, which dcmppi.render.recording drives)."""
+
+    def __init__(self, episode: Episode, watch):
+        self._episode, self._watch = episode, watch
+        watch(episode)
+
+    def __getattr__(self, name):
+        return getattr(self._episode, name)
+
+    def step(self) -> None:
+        self._episode.step()
+        self._watch(self._episode)
 
 
 def compare(record: dict, result: dict) -> Replay:

@@ -62,7 +62,9 @@ def test_environment_variable_names_the_folder(monkeypatch):
 
 def test_a_missing_folder_is_one_error_line_naming_both_ways(monkeypatch, tmp_path):
     monkeypatch.delenv(recordings.CROWDS_ENV, raising=False)
-    with pytest.raises(ValueError, match=r"not part of dcmppi: set DCMPPI_CROWDS=DIR, .*path=DIR"):
+    with pytest.raises(
+        ValueError, match=r"not part of dcmppi: set DCMPPI_CROWDS=DIR, .*folder=DIR"
+    ):
         recordings.load("biwi_eth")
     with pytest.raises(ValueError, match=r"^folder=.*nowhere: no such folder.*DCMPPI_CROWDS") as e:
         recordings.scene("eth", tmp_path / "nowhere")
@@ -76,10 +78,10 @@ def test_a_missing_folder_is_one_error_line_naming_both_ways(monkeypatch, tmp_pa
 def test_a_malformed_file_names_itself(tmp_path):
     path = tmp_path / "bad.txt"
     path.write_text("0\t1\t2.0\n")
-    with pytest.raises(ValueError, match=r"bad\.txt: expected rows of four"):
+    with pytest.raises(ValueError, match=r"bad\.txt line 1: expected four numbers .* got 3"):
         recordings.load(path)
-    path.write_text("0\t1\t2.0\tx\n")
-    with pytest.raises(ValueError, match=r"bad\.txt: not a four-column file"):
+    path.write_text("0\t1\t2.0\t3.0\n0\t1\t2.0\tx\n")
+    with pytest.raises(ValueError, match=r"bad\.txt line 2: 'x' is not a number"):
         recordings.load(path)
 
 

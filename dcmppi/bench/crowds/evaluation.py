@@ -16,7 +16,6 @@ import numpy as np
 
 from dcmppi.bench.crowds import forecast_metrics, forecasters
 from dcmppi.control.predictors import learned, predictor_class
-from dcmppi.control.validation import positive
 from dcmppi.tasks.replay import recordings
 
 OBS, PRED = 8, 12
@@ -62,8 +61,8 @@ def evaluate(
       "rows": {row: {scene: {column: mean}, "average": {column: mean}}}, "published"}.
     """
     folder = recordings.crowds_folder(folder)
-    if limit is not None:
-        positive("limit", limit, integer=True)
+    if limit is not None and (isinstance(limit, bool) or not isinstance(limit, int) or limit < 1):
+        raise ValueError(f"limit must be a count >= 1; got {limit!r}")
     for scene in scenes:
         recordings.train_files(scene)  # an unknown scene: one ValueError
     for name in predictors:

@@ -163,13 +163,14 @@ def reading(p: argparse.ArgumentParser, period: str, default=None, checks: bool 
             "--max-speed",
             type=float,
             default=recordings.MAX_SPEED,
-            help="refuse a person moving faster [m/s] between consecutive annotations",
+            help="refuse a person moving faster [m/s] between consecutive annotations "
+            f"(default {recordings.MAX_SPEED:g})",
         )
         p.add_argument(
             "--max-gap",
             type=float,
             default=recordings.MAX_GAP,
-            help="read a person absent for longer [s] as two people",
+            help=f"read a person absent for longer [s] as two (default {recordings.MAX_GAP:g})",
         )
 
 

@@ -2,24 +2,11 @@
 given, stated or known, each damaged file refused in one line naming the file, the person, the
 frame and the fix, long absences split, far recordings moved to the origin."""
 
-import os
-import pathlib
-
 import numpy as np
 import pytest
 
 from dcmppi import tasks
 from dcmppi.tasks.replay import recordings, scenes, tracks
-
-ROOT = pathlib.Path(__file__).resolve().parents[2]
-
-
-def crowds():
-    """The ETH/UCY folder ($DCMPPI_CROWDS, else ../shared/crowds), or skip saying why."""
-    folder = pathlib.Path(os.environ.get(recordings.CROWDS_ENV) or ROOT.parent / "shared/crowds")
-    if not (folder / "biwi_eth.txt").is_file():
-        pytest.skip(f"the ETH/UCY files are absent ({folder}; set {recordings.CROWDS_ENV})")
-    return folder
 
 
 def walk(step=10, frames=30, speed=1.2, period=0.4):
@@ -77,13 +64,6 @@ def test_the_period_is_given_stated_in_the_file_or_known(tmp_path):
     # a replay of a file that states its period walks at the file's speed
     env = tasks.load("replay", {"scene": str(stated), "episode": 0})
     assert env.task.time_limit == pytest.approx(2 * 29 * 0.8)
-
-
-def test_biwi_eth_is_known_by_its_rows_under_another_name(tmp_path):
-    copy = tmp_path / "renamed.txt"
-    copy.write_bytes((crowds() / "biwi_eth.txt").read_bytes())
-    assert recordings.load(copy).period == pytest.approx(10 / 15)
-    assert recordings.load(copy, period=0.4).period == 0.4
 
 
 def one_line(path, **reading):
@@ -190,15 +170,6 @@ def test_a_far_recording_is_moved_to_the_origin_and_replays_alike(tmp_path):
     assert pair[0].episodes == pair[1].episodes
     moved = pair[1].recordings[0].tracks[0].xy + b.offset - [3e5, -2e5]
     np.testing.assert_allclose(moved, pair[0].recordings[0].tracks[0].xy, rtol=0, atol=1e-9)
-
-
-def test_the_eight_files_are_read_as_before(tmp_path):
-    folder = crowds()
-    for name in recordings.FILES:
-        found = recordings.examine(name, folder)
-        assert found.frame_step == 10 and not found.problems and not found.notes, name
-        assert found.recording.offset == (0.0, 0.0)
-    assert len(scenes.load_scene(scenes.scene_files("eth", folder)).episodes) == 305
 
 
 def test_a_person_faster_than_the_goal_region_per_control_step_has_a_reference(tmp_path):

@@ -6,7 +6,7 @@ import pathlib
 import numpy as np
 import pytest
 
-from dcmppi.tasks.replay import recordings
+from dcmppi.tasks.replay import recordings, scenes
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -127,3 +127,19 @@ def test_standard_window_counts():
     folder = crowds()
     counts = {name: len(recordings.windows(recordings.scene(name, folder))) for name in ["eth"]}
     assert counts == {"eth": 364}
+
+
+def test_biwi_eth_is_known_by_its_rows_under_another_name(tmp_path):
+    copy = tmp_path / "renamed.txt"
+    copy.write_bytes((crowds() / "biwi_eth.txt").read_bytes())
+    assert recordings.load(copy).period == pytest.approx(10 / 15)
+    assert recordings.load(copy, period=0.4).period == 0.4
+
+
+def test_the_eight_files_are_read_as_before(tmp_path):
+    folder = crowds()
+    for name in recordings.FILES:
+        found = recordings.examine(name, folder)
+        assert found.frame_step == 10 and not found.problems and not found.notes, name
+        assert found.recording.offset == (0.0, 0.0)
+    assert len(scenes.load_scene(scenes.scene_files("eth", folder)).episodes) == 305

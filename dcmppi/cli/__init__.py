@@ -1,5 +1,5 @@
 """The `dcmppi` command line: tasks, controllers, run, compare, figure, bench, report, replay,
-outcomes, reach, predictor, record, timing.
+outcomes, reach, predictor, record, crowds, timing.
 
 One module per command, each with `add_parser(subparsers, names)` (the command's options;
 `names`: what --help lists, `common.choices()`) and `run(args)` (the command; returns the exit
@@ -22,6 +22,7 @@ from dcmppi.cli import (
     common,
     compare,
     controllers,
+    crowds,
     figure,
     outcomes,
     predictor,
@@ -48,6 +49,7 @@ COMMANDS = (
     reach,
     predictor,
     record,
+    crowds,
     timing,
 )
 

@@ -7,6 +7,7 @@ import argparse
 import contextlib
 import json
 import os
+import re
 import textwrap
 import traceback
 
@@ -136,17 +137,65 @@ FLAGS = {
 }
 
 
+# how recorded crowds are read (dcmppi.tasks.replay.recordings.load), by the flag that sets each
+READING_FLAGS = {
+    "folder": "--folder",
+    "period": "--period",
+    "frame_step": "--frame-step",
+    "max_speed": "--max-speed",
+    "max_gap": "--max-gap",
+}
+
+
+def reading(p: argparse.ArgumentParser, period: str, default=None, checks: bool = True) -> None:
+    """The options of READING_FLAGS but --folder: --period (`period`: its help; `default`),
+    --frame-step and, with checks, --max-speed and --max-gap."""
+    from dcmppi.tasks.replay import recordings
+
+    p.add_argument("--period", type=float, default=default, help=period)
+    p.add_argument(
+        "--frame-step",
+        type=int,
+        help="video frames between annotated frames (default: each file's most common step)",
+    )
+    if checks:
+        p.add_argument(
+            "--max-speed",
+            type=float,
+            default=recordings.MAX_SPEED,
+            help="refuse a person moving faster [m/s] between consecutive annotations "
+            f"(default {recordings.MAX_SPEED:g})",
+        )
+        p.add_argument(
+            "--max-gap",
+            type=float,
+            default=recordings.MAX_GAP,
+            help=f"read a person absent for longer [s] as two (default {recordings.MAX_GAP:g})",
+        )
+
+
 @contextlib.contextmanager
-def flag_names():
-    """The Python API's ValueErrors about an argument, which begin with its name ("workers must
-    be >= 1, ..."), re-raised with the flag that sets it ("--workers must be >= 1, ...")."""
+def flag_names(flags=FLAGS):
+    """The Python API's ValueErrors about an argument of `flags` ({argument: flag}), which begin
+    with its name ("workers must be >= 1, ...") or advise it ("... pass period=SECONDS"),
+    re-raised with the flag that sets it ("--workers must be >= 1, ...", "--period SECONDS")."""
     try:
         yield
     except ValueError as e:
-        name, space, rest = str(e).partition(" ")
-        if name not in FLAGS:
+        text = flagged(str(e), flags)
+        if text == str(e):
             raise
-        raise ValueError(f"{FLAGS[name]}{space}{rest}") from e
+        raise ValueError(text) from e
+
+
+def flagged(text: str, flags: dict) -> str:
+    """`text` with the arguments of `flags` named by their flags (`flag_names`)."""
+    name, space, rest = text.partition(" ")
+    if name in flags:
+        text = f"{flags[name]}{space}{rest}"
+    for argument, flag in flags.items():
+        text = re.sub(rf"(?<![\w.-]){argument}=(?=\S)", f"{flag} ", text)
+    return text
 
 
 class EpisodeFailed(Exception):

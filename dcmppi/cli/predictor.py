@@ -4,9 +4,15 @@ eval` (the standard ETH/UCY forecast protocol)."""
 import json
 
 from dcmppi.bench.crowds import evaluation, training
-from dcmppi.cli.common import command
+from dcmppi.cli.common import READING_FLAGS, command, flag_names, reading
 from dcmppi.control.predictors import learned
 from dcmppi.tasks.replay import recordings
+
+PERIOD_HELP = (
+    f"seconds between annotated frames, every file alike (default {recordings.PERIOD}, as "
+    "forecasting papers read ETH/UCY)"
+)
+FLAGS = {**READING_FLAGS, "max_windows": "--max-windows", "limit": "--limit"}
 
 
 def add_parser(subparsers, names: dict) -> None:
@@ -45,13 +51,7 @@ def _train_parser(sub, folder: str) -> None:
     )
     t.add_argument("--out", required=True, help="the model file to write (.npz)")
     t.add_argument("--seed", type=int, default=0, help="seed of the training (default 0)")
-    t.add_argument(
-        "--period",
-        type=float,
-        default=recordings.PERIOD,
-        help=f"seconds between annotated frames, every file alike (default {recordings.PERIOD}, "
-        "as forecasting papers read ETH/UCY)",
-    )
+    reading(t, PERIOD_HELP, recordings.PERIOD)
     t.add_argument("--max-windows", type=int, help="train on this many windows, drawn by --seed")
     t.add_argument("--folder", help=folder)
 
@@ -77,18 +77,21 @@ def _eval_parser(sub, folder: str) -> None:
     )
     e.add_argument("--seed", type=int, default=0, help="seed of samples and training")
     e.add_argument("--limit", type=int, help="at most this many windows per scene")
+    reading(e, PERIOD_HELP, recordings.PERIOD, checks=False)
     e.add_argument("--folder", help=folder)
     e.add_argument("--json", action="store_true", help="print one JSON object")
 
 
 def run(args) -> int:
     """Runs `dcmppi predictor train|eval`; returns the exit status."""
-    return {"train": train, "eval": evaluate}[args.action](args)
+    with flag_names(FLAGS):
+        return {"train": train, "eval": evaluate}[args.action](args)
 
 
 def train(args) -> int:
     names = recordings.train_files(args.leave_out) if args.leave_out else args.data
-    data = training.read(names, args.folder, args.period)
+    how = {"frame_step": args.frame_step, "max_speed": args.max_speed, "max_gap": args.max_gap}
+    data = training.read(names, args.folder, args.period, **how)
     model = training.train(data, args.out, args.seed, args.max_windows)
     print(
         f"{args.out}: {len(model.features)} windows of {len(names)} files, shrink "
@@ -114,6 +117,8 @@ def evaluate(args) -> int:
         models or None,
         args.seed,
         args.limit,
+        args.period,
+        args.frame_step,
     )
     print(json.dumps(result, indent=1) if args.json else evaluation.table(result))
     return 0

@@ -1,5 +1,6 @@
 """`dcmppi record`: the pedestrians of a task's episodes written as an ETH/UCY recording (four
-columns: frame id x y), for `dcmppi predictor train --data FILE --period P`."""
+columns: frame id x y, its period stated in a first line `# period P`), for `dcmppi predictor
+train --data FILE --period P` and the replay task."""
 
 from dcmppi.cli.common import command, key_values
 from dcmppi.tasks.replay import recordings
@@ -29,6 +30,12 @@ def add_parser(subparsers, names: dict) -> None:
         default=recordings.PERIOD,
         help="seconds between frames, a whole number of control steps (as ETH/UCY: 0.4)",
     )
+    p.add_argument(
+        "--frame-step",
+        type=int,
+        default=recordings.FRAME_STEP,
+        help="video frames between the annotated frames written (as ETH/UCY: 10)",
+    )
     p.add_argument("--seconds", type=float, help="length of each episode (default: time limit)")
     p.add_argument("--out", required=True, help="the file to write (.txt)")
 
@@ -41,12 +48,14 @@ def run(args) -> int:
         if pair.partition("=")[0] in ("random", "noise"):
             raise ValueError(f"--task-param {pair}: set per episode; choose them by --base-seed")
     params = key_values(args.task_param, "--task-param")
+    if args.frame_step < 1:
+        raise ValueError(f"--frame-step must be >= 1; got {args.frame_step}")
     recording = record(args.task, params, args.episodes, args.base_seed, args.period, args.seconds)
-    recordings.save(recording, args.out)
+    recordings.save(recording, args.out, args.frame_step)
     frames = sum(len(t.frames) for t in recording.tracks)
     print(
         f"{args.out}: {len(recording.tracks)} people, {frames} positions of {args.episodes} "
-        f"episodes of {args.task}, a frame every {args.period:g} s; train: dcmppi predictor "
-        f"train --data {args.out} --period {args.period:g} --out MODEL.npz"
+        f"episodes of {args.task}, a frame every {args.period:g} s (stated in the file); train: "
+        f"dcmppi predictor train --data {args.out} --period {args.period:g} --out MODEL.npz"
     )
     return 0

@@ -187,17 +187,19 @@ class RecordedPeople:
 
 
 def self_collisions(scene, path=None, episodes=None, radius=PEDESTRIAN_RADIUS,
-                    robot_radius=PEDESTRIAN_RADIUS, dt=defaults.DT) -> np.ndarray:  # fmt: skip
+                    robot_radius=PEDESTRIAN_RADIUS, dt=defaults.DT,
+                    **reading) -> np.ndarray:  # fmt: skip
     """Whether each episode of `scene` (its first `episodes`, or the episodes of the indices
     `episodes` lists; None: all) has its replaced person "collide" when replayed along their
-    own track under the task's rule, (E,) bool.
+    own track under the task's rule, (E,) bool; `reading`: how its files are read (the task's
+    period, frame_step, max_speed, max_gap).
 
     The robot's disc (robot_radius) follows the person's track; the others are the episode's
     RecordedPeople (held back where they would appear on it); a collision is two centres
     within radius + robot_radius at a physics substep, until the person's position at a control
     instant is within GOAL_TOLERANCE of their goal (where an episode ends).
     """
-    sc = load_scene(scene_files(scene, path))
+    sc = load_scene(scene_files(scene, path), **reading)
     n = int(round(dt / PHYSICS_TIMESTEP))
     contact = radius + robot_radius
     out = []

@@ -1,29 +1,43 @@
-"""Recorded pedestrians: the ETH/UCY trajectory files (plain numpy, no MuJoCo).
+"""Recorded pedestrians: four-column trajectory files such as ETH/UCY's (plain numpy, no MuJoCo).
 
-A file holds one row per pedestrian per annotated frame, four tab- or space-separated columns
-`frame pedestrian_id x y` (positions in metres in the scene's world frame); annotated frames are
-FRAME_STEP video frames apart. The files are not part of dcmppi: a `folder` argument names them,
-else the folder that $DCMPPI_CROWDS names (the README of that folder gives the format, the frame
-rates and the credit owed: ETH, Pellegrini et al. 2009; UCY, Lerner et al. 2007).
+A file holds one row per pedestrian per annotated frame, four whitespace-separated numbers
+`frame pedestrian_id x y` (positions in metres in the scene's world frame); `checks` reads it,
+refuses what is wrong with it (one line naming the file, the person, the frame and the fix) and
+says what it did (a person split at a long absence, a far recording moved to the origin). The
+ETH/UCY files are not part of dcmppi: a `folder` argument names them, else the folder that
+$DCMPPI_CROWDS names (the README of that folder gives the format, the frame rates and the credit
+owed: ETH, Pellegrini et al. 2009; UCY, Lerner et al. 2007).
 
-Time: annotated frame k (video frame k * FRAME_STEP) is at k * period. The period is PERIOD
-(0.4 s) for every file but biwi_eth, whose annotated frames are 10 frames of a 15 fps video apart
-(PERIODS); prediction papers read every file at 0.4 s (pass period=PERIOD).
+Time: the frame step is each person's most common difference between consecutive annotated
+frames (10 in ETH/UCY, 1 or 12 in TrajNet's files), or `frame_step`; annotated frame f is at
+f / frame_step * period. The period is `period`, else the one the file states (a comment
+`# period P`), else that of a known recording (PERIODS: biwi_eth's annotated frames are 10
+frames of a 15 fps video apart, known by its rows, or by its name with a step of 10), else
+PERIOD (0.4 s); prediction papers read every ETH/UCY file at 0.4 s (pass period=PERIOD).
 
 The standard split of forecasting work (Social-GAN, Trajectron++): SCENES name the five test
 scenes, TRAINING_ONLY the files that only ever train; `train_files(scene)` leaves one scene out.
 """
 
 import dataclasses
+import hashlib
+import math
 import os
 import pathlib
 
 import numpy as np
 
+from dcmppi.control.validation import positive
+
+from . import checks
+from .checks import MAX_GAP, MAX_SPEED
+
 CROWDS_ENV = "DCMPPI_CROWDS"  # environment variable naming the folder of the files
-FRAME_STEP = 10  # video frames between annotated frames
-PERIOD = 0.4  # [s] between annotated frames: 10 frames of a 25 fps video
-PERIODS = {"biwi_eth": 10 / 15}  # [s] files recorded at another rate (15 fps)
+FRAME_STEP = 10  # video frames between ETH/UCY's annotated frames (and dcmppi's recordings')
+PERIOD = 0.4  # [s] between annotated frames, unless given, stated or known
+PERIODS = {"biwi_eth": 10 / 15}  # [s] known recordings of another period (15 fps)
+# the known recordings by the sha256 of their rows (as read: frame, id, x, y, float64)
+KNOWN = {"4b4aed12e3376b3af7f5572ddbbe01df61057b6727f9570ee5a44df9024bd179": "biwi_eth"}
 SCENES = {
     "eth": ("biwi_eth",),
     "hotel": ("biwi_hotel",),
@@ -33,6 +47,7 @@ SCENES = {
 }
 TRAINING_ONLY = ("crowds_zara03", "uni_examples")
 FILES = (*(f for files in SCENES.values() for f in files), *TRAINING_ONLY)
+READING = ("period", "frame_step", "max_speed", "max_gap")  # how `load` reads a file
 
 
 @dataclasses.dataclass(frozen=True)
@@ -49,11 +64,16 @@ class Track:
 @dataclasses.dataclass(frozen=True)
 class Recording:
     """The tracks of one file: name (the file's stem), period [s] between annotated frames,
-    tracks (the people, by first appearance)."""
+    tracks (the people, by first appearance), frame_step (video frames between annotated
+    frames), offset (2,) [m] subtracted from the file's positions (a far recording moved to the
+    origin), notes (what reading did, one line each)."""
 
     name: str
     period: float
     tracks: tuple
+    frame_step: float = FRAME_STEP
+    offset: tuple = (0.0, 0.0)
+    notes: tuple = ()
 
     def __post_init__(self):
         if self.tracks:
@@ -125,83 +145,173 @@ class Windows:
         return self.xy[:, self.obs :]
 
 
-def crowds_folder(folder=None) -> pathlib.Path:
+def crowds_folder(folder=None, argument="folder") -> pathlib.Path:
     """The folder of the recordings: `folder`, else the one $DCMPPI_CROWDS names.
 
     Raises:
-      ValueError: one line naming both ways to give it, when neither names a folder.
+      ValueError: one line naming both ways to give it (the folder as `argument`=DIR), when
+        neither names a folder.
     """
-    fix = f"set {CROWDS_ENV}=DIR, the folder of the eight files, or pass path=DIR"
+    fix = f"set {CROWDS_ENV}=DIR, the folder of the eight files, or pass {argument}=DIR"
     given = folder if folder is not None else os.environ.get(CROWDS_ENV)
     if not given:
         raise ValueError(f"the ETH/UCY recordings are not part of dcmppi: {fix}")
     path = pathlib.Path(given)
     if not path.is_dir():
-        where = "folder" if folder is not None else CROWDS_ENV
+        where = argument if folder is not None else CROWDS_ENV
         raise ValueError(f"{where}={path}: no such folder of ETH/UCY files; {fix}")
     return path
 
 
-def load(name_or_path, folder=None, period=None) -> Recording:
-    """One recording: a file name of FILES (in `crowds_folder(folder)`) or a path to a file.
+@dataclasses.dataclass(frozen=True)
+class Examined:
+    """What reading a file found: path; recording (None where refused); positions (its rows);
+    frame_step, period [s] and speeds [m/s] between consecutive annotations of a person (None
+    where not reached); problems (the lines that refuse it); notes (what reading did, and a
+    median speed that questions the period)."""
 
-    period: [s] between annotated frames (None: PERIODS, else PERIOD, by the file's stem).
+    path: pathlib.Path
+    recording: Recording | None
+    positions: int
+    frame_step: float | None
+    period: float | None
+    speeds: np.ndarray | None
+    problems: tuple
+    notes: tuple
+
+
+def examine(
+    name_or_path,
+    folder=None,
+    period=None,
+    frame_step=None,
+    max_speed=MAX_SPEED,
+    max_gap=MAX_GAP,
+    argument="folder",
+) -> Examined:
+    """A recording read and checked (`load`'s arguments): its problems listed, not raised.
 
     Raises:
-      ValueError: naming the file, for a missing or malformed file.
+      ValueError: one line naming the file, for a missing, unreadable or empty file or one that
+        is not four numbers a row, or naming the argument, for a bad argument.
     """
+    path = file_path(name_or_path, folder, argument)
+    if frame_step is not None:
+        frame_step = positive("frame_step", frame_step)
+    max_speed, max_gap = positive("max_speed", max_speed), positive("max_gap", max_gap)
+    rows = checks.read(path)
+    step, found = checks.check(path, rows, frame_step, FRAME_STEP)
+    if not found:
+        period, found = _period(path, rows, step, period)
+    if found:
+        return Examined(path, None, len(rows.frame), step, None, None, tuple(found), ())
+    people, found = checks.people(path, rows, step, period, max_speed, max_gap)
+    if found:
+        seen = (step, period, people.speeds, tuple(found), people.notes)
+        return Examined(path, None, len(rows.frame), *seen)
+    tracks = [
+        Track(i, f, t, xy)
+        for i, f, t, xy in zip(people.ids, people.frames, people.times, people.xy, strict=True)
+    ]
+    tracks.sort(key=lambda t: (t.frames[0], t.id))
+    offset = tuple(float(x) for x in people.offset)
+    rec = Recording(path.stem, period, tuple(tracks), step, offset, people.notes)
+    notes = people.notes + tuple(checks.walking_note(path, people.speeds, period))
+    return Examined(path, rec, len(rows.frame), step, period, people.speeds, (), notes)
+
+
+def load(
+    name_or_path,
+    folder=None,
+    period=None,
+    frame_step=None,
+    max_speed=MAX_SPEED,
+    max_gap=MAX_GAP,
+    argument="folder",
+) -> Recording:
+    """One recording: a file name of FILES (in `crowds_folder(folder)`) or a path to a file.
+
+    period: [s] between annotated frames (None: stated by the file, else known, else PERIOD;
+    module docstring); frame_step: video frames between annotated frames (None: inferred);
+    max_speed [m/s]: the fastest a person may move between consecutive annotations; max_gap [s]:
+    a person absent for longer is read as two (checks). argument: the name the folder has in the
+    caller's messages.
+
+    Raises:
+      ValueError: one line naming the file, for a missing file or one that the checks refuse
+        (its first problem; `examine` lists them all).
+    """
+    found = examine(name_or_path, folder, period, frame_step, max_speed, max_gap, argument)
+    if found.problems:
+        more = sum(not p.startswith("...") for p in found.problems[1:])
+        raise ValueError(found.problems[0] + (f" (and {more} more problems)" if more else ""))
+    return found.recording
+
+
+def file_path(name_or_path, folder=None, argument="folder") -> pathlib.Path:
+    """The file of a name of FILES (in `crowds_folder(folder)`) or a path; a ValueError naming
+    it where there is no such file."""
     name = str(name_or_path)
     path = pathlib.Path(name)
     if not (path.suffix or os.sep in name):
-        path = crowds_folder(folder) / f"{name}.txt"
+        path = crowds_folder(folder, argument) / f"{name}.txt"
     if not path.is_file():
         raise ValueError(f"{path}: no such recording; files: {', '.join(FILES)}")
-    rows = _read(path)
-    period = PERIODS.get(path.stem, PERIOD) if period is None else float(period)
-    if not period > 0:
-        raise ValueError(f"period must be > 0 s; got {period}")
-    order = np.lexsort((rows[:, 0], rows[:, 1]))  # by person, then frame
-    rows = rows[order]
-    cuts = np.flatnonzero(np.diff(rows[:, 1])) + 1
-    tracks = []
-    for part in np.split(rows, cuts):
-        frames = part[:, 0]
-        if np.any(np.diff(frames) <= 0):
-            raise ValueError(f"{path}: person {part[0, 1]:g} is annotated twice in one frame")
-        tracks.append(Track(int(part[0, 1]), frames, frames / FRAME_STEP * period, part[:, 2:]))
-    tracks.sort(key=lambda t: (t.frames[0], t.id))
-    return Recording(path.stem, period, tuple(tracks))
+    return path
 
 
-def _read(path) -> np.ndarray:
-    """(R, 4) rows frame, id, x, y of a four-column file, or a ValueError naming the file."""
-    try:
-        rows = np.loadtxt(path, ndmin=2)
-    except (OSError, ValueError) as e:
-        raise ValueError(f"{path}: not a four-column file frame, id, x, y ({e})") from None
-    if rows.shape[1:] != (4,) or not len(rows) or not np.isfinite(rows).all():
-        raise ValueError(
-            f"{path}: expected rows of four finite numbers frame, id, x, y; got {rows.shape}"
-        )
-    return rows
+def _period(path, rows, step, given) -> tuple:
+    """(period [s] (module docstring), []), or (None, [the line that refuses a given period the
+    file contradicts])."""
+    if given is None:
+        if rows.period is not None:
+            return rows.period, []
+        digest = hashlib.sha256(np.column_stack([rows.frame, rows.id, rows.xy]).tobytes())
+        known = KNOWN.get(digest.hexdigest())
+        if known is None and step == FRAME_STEP:
+            known = path.stem
+        return PERIODS.get(known, PERIOD), []
+    period = positive("period", given)
+    if rows.period is not None and not math.isclose(period, rows.period, rel_tol=1e-9):
+        return None, [
+            f"{path}: the file states {rows.period:g} s between annotated frames (its '# period' "
+            f"line), read at period={period:g}: pass period={rows.period:g}"
+        ]
+    return period, []
 
 
-def save(recording, path):
-    """Writes `recording` in the four-column format (tab-separated) that `load` reads; the
-    period is not stored (load's `period` gives it back)."""
+def save(recording, path, frame_step=None):
+    """Writes `recording` in the four-column format (tab-separated) that `load` reads, with a
+    first line `# period P` that gives load its period, its annotated frames frame_step apart
+    (None: the recording's) and its positions where the file had them (the offset added back).
+    """
+    step = recording.frame_step if frame_step is None else positive("frame_step", frame_step)
     rows = [
-        np.column_stack([t.frames, np.full(len(t.frames), t.id), t.xy]) for t in recording.tracks
+        np.column_stack(
+            [t.frames / recording.frame_step * step, np.full(len(t.frames), t.id), t.xy]
+        )
+        for t in recording.tracks
     ]
     rows = np.concatenate(rows) if rows else np.zeros((0, 4))
     rows = rows[np.lexsort((rows[:, 1], rows[:, 0]))]
-    np.savetxt(path, rows, fmt=["%.1f", "%.1f", "%.6f", "%.6f"], delimiter="\t")
+    rows[:, 2:] += recording.offset
+    header = f"period {float(recording.period)!r}"
+    np.savetxt(
+        path,
+        rows,
+        fmt=["%.1f", "%.1f", "%.6f", "%.6f"],
+        delimiter="\t",
+        header=header,
+        comments="# ",
+    )
 
 
-def scene(name, folder=None, period=None) -> list:
-    """The recordings of test scene `name` (a key of SCENES), as `load` reads them."""
+def scene(name, folder=None, period=None, **reading) -> list:
+    """The recordings of test scene `name` (a key of SCENES), as `load` reads them (reading:
+    its frame_step, max_speed, max_gap)."""
     if name not in SCENES:
         raise ValueError(f"unknown scene {name!r}; scenes: {', '.join(SCENES)}")
-    return [load(f, folder, period) for f in SCENES[name]]
+    return [load(f, folder, period, **reading) for f in SCENES[name]]
 
 
 def train_files(test_scene) -> tuple:
@@ -245,7 +355,8 @@ def _windows(recording, obs, pred, source):
     if not tracks:
         return np.zeros((0, length, 2)), [], [], [], ()
     # grid (F, T, 2) of every person's position by annotated frame index, nan where absent
-    index = [np.rint(t.frames / FRAME_STEP).astype(int) for t in tracks]
+    origin = min(t.frames[0] for t in tracks)
+    index = [np.rint((t.frames - origin) / recording.frame_step).astype(int) for t in tracks]
     first = min(i[0] for i in index)
     grid = np.full((max(i[-1] for i in index) - first + 1, len(tracks), 2), np.nan)
     for column, (i, track) in enumerate(zip(index, tracks, strict=True)):

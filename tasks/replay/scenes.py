@@ -8,8 +8,8 @@ the people annotated within its time limit, each in a row while present (`window
 
 Data: the recordings are not part of dcmppi (`recordings`): `folder` names their folder, else
 $DCMPPI_CROWDS; a scene is a test scene (eth, hotel, univ, zara1, zara2), a file name of
-recordings.FILES or a path to a four-column file. Frame periods per file as recordings.PERIODS
-says.
+recordings.FILES or a path to a four-column file, read as recordings.load reads it (`reading`:
+its period, frame_step, max_speed and max_gap).
 """
 
 import dataclasses
@@ -42,10 +42,10 @@ class Scene:
 
 def scene_files(scene, folder=None) -> tuple:
     """The paths of the files of `scene`: a name of recordings.SCENES or recordings.FILES (in
-    recordings.crowds_folder(folder)) or a path to a file."""
+    recordings.crowds_folder(folder), the argument `path` of the task) or a path to a file."""
     name = str(scene)
     if name in recordings.SCENES or name in recordings.FILES:
-        base = recordings.crowds_folder(folder)
+        base = recordings.crowds_folder(folder, "path")
         return tuple(str(base / f"{f}.txt") for f in recordings.SCENES.get(name, (name,)))
     if pathlib.Path(name).suffix or os.sep in name:
         return (name,)
@@ -55,9 +55,20 @@ def scene_files(scene, folder=None) -> tuple:
     )
 
 
-def load_scene(files) -> Scene:
-    """The Scene of the files (paths) and its episodes, one object while the files stay the same;
-    a ValueError where it has none."""
+def given_scene(name, given) -> str:
+    """The scene of the task parameter `given` (a scene or a list of them) that a results
+    database names `name` (a scene, else a recording's name): the path whose file is `name`
+    (a scene given as a file), else `name`."""
+    for scene in given if isinstance(given, (list, tuple)) else [given]:
+        if str(scene) not in recordings.SCENES and pathlib.Path(str(scene)).stem == name:
+            return str(scene)
+    return name
+
+
+def load_scene(files, **reading) -> Scene:
+    """The Scene of the files (paths) read as recordings.load reads them with `reading` (period,
+    frame_step, max_speed, max_gap) and its episodes, one object while the files and `reading`
+    stay the same; a ValueError where it has none."""
     stamps = []
     for f in files:
         try:
@@ -65,13 +76,14 @@ def load_scene(files) -> Scene:
             stamps.append((stat.st_mtime_ns, stat.st_size))
         except OSError:
             stamps.append(None)  # recordings.load says why
-    return _load_scene(tuple(map(str, files)), tuple(stamps))
+    return _load_scene(tuple(map(str, files)), tuple(stamps), tuple(sorted(reading.items())))
 
 
 @functools.lru_cache(maxsize=16)
-def _load_scene(files, stamps) -> Scene:
-    """load_scene of files whose modification times and sizes are `stamps`."""
-    recs = tuple(recordings.load(f) for f in files)
+def _load_scene(files, stamps, reading=()) -> Scene:
+    """load_scene of files whose modification times and sizes are `stamps`, `reading` as
+    (name, value) pairs."""
+    recs = tuple(recordings.load(f, argument="path", **dict(reading)) for f in files)
     name = "+".join(r.name for r in recs)
     found = [(r, i) for r, rec in enumerate(recs) for i in candidates(rec)]
     if not found:
@@ -137,10 +149,11 @@ def episode_window(scene, k, time_limit) -> tuple:
     return window(rec, i, own if time_limit is None else time_limit)
 
 
-def episode_index(scene, recording: str, person: int, path=None) -> int:
-    """The index among `scene`'s episodes of the one that replaces person `person` of the
-    recording named `recording` (what a results database stores); a ValueError if none does."""
-    sc = load_scene(scene_files(scene, path))
+def episode_index(scene, recording: str, person: int, path=None, **reading) -> int:
+    """The index among `scene`'s episodes (its files read with `reading`, as load_scene's) of
+    the one that replaces person `person` of the recording named `recording` (what a results
+    database stores); a ValueError if none does."""
+    sc = load_scene(scene_files(scene, path), **reading)
     for k, (r, i) in enumerate(sc.episodes):
         if sc.recordings[r].name == recording and sc.recordings[r].tracks[i].id == person:
             return k

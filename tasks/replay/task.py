@@ -22,6 +22,7 @@ from ..navigation import PHYSICS_TIMESTEP, Navigation
 from ..pedestrians.worlds import pedestrian_obstacle_model
 from ..worlds.base import World, make_world
 from .people import PEDESTRIAN_RADIUS, RecordedPeople
+from .recordings import MAX_GAP, MAX_SPEED
 from .scenes import TIME_FACTOR, episode_window, load_scene, scene_files
 from .tracks import human, start_pose, top_speed
 
@@ -63,6 +64,10 @@ class Replay(Navigation):
       scene: a test scene (eth, hotel, univ, zara1, zara2), a file name of recordings.FILES or
         a path to a file, or a list of them (episode e: episode e // S of scene e % S).
       path: the folder of the recordings (else $DCMPPI_CROWDS).
+      period, frame_step, max_speed, max_gap: how the files are read (recordings.load): the
+        seconds between annotated frames (None: the file's own), the video frames between
+        them (None: inferred), the fastest a person may move between them [m/s], the longest
+        absence [s] before a person is read as two.
       episode: the episode's index (see scene); None: the task's `random` picks a scene and
         one of its episodes for every episode.
       reactive: the people avoid the robot (`RecordedPeople`'s reactive): world.behavior is
@@ -82,14 +87,19 @@ class Replay(Navigation):
         reactive=False,
         pedestrian_radius=PEDESTRIAN_RADIUS,
         robot_radius=PEDESTRIAN_RADIUS,
+        period=None,
+        frame_step=None,
+        max_speed=MAX_SPEED,
+        max_gap=MAX_GAP,
         **kwargs,
     ):
         self.reactive = flag("reactive", reactive)
+        reading = dict(period=period, frame_step=frame_step, max_speed=max_speed, max_gap=max_gap)
         self.pedestrian_radius = positive("pedestrian_radius", pedestrian_radius)
         names = list(scene) if isinstance(scene, (list, tuple)) else [scene]
         if not names:
             raise ValueError("scene: name at least one scene")
-        self.scenes = tuple(load_scene(scene_files(name, path)) for name in names)
+        self.scenes = tuple(load_scene(scene_files(name, path), **reading) for name in names)
         count = len(self.scenes)
         if episode is None:
             self._choices = [(s, k) for s in range(count) for k in range(self._count(s))]

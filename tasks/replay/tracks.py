@@ -70,7 +70,8 @@ def human(recording, person, dt=defaults.DT) -> Human:
     track = recording.tracks[person]
     times = track.times - track.times[0]
     goal = track.xy[-1]
-    instants = np.arange(int(math.floor(times[-1] / dt + 1e-9)) + 1) * dt
+    # the control instants until the last annotation, and one after it (at the goal)
+    instants = np.arange(int(math.floor(times[-1] / dt + 1e-9)) + 2) * dt
     at = interp(instants, times, track.xy)
     k = int(np.flatnonzero(np.hypot(*(at - goal).T) <= GOAL_TOLERANCE)[0])
     until = times < instants[k]

@@ -191,3 +191,46 @@ def test_errors_name_the_fix(tmp_path):
         make_predictor("learned", model=str(bad), **SHARED)
     with pytest.raises(ValueError, match=r"approximation must be >= 0"):
         make_predictor("learned", model=str(model_file(tmp_path)), approximation=-1, **SHARED)
+
+
+def test_a_broken_model_file_is_one_line_naming_it_and_how_to_retrain(tmp_path):
+    good = model_file(tmp_path)
+    data = good.read_bytes()
+    model = learned.load(good)
+    arrays = {"format": np.array("dcmppi-learned-1"), "seed": np.array(0)}
+    arrays["settings"] = np.array([model.obs, PERIOD, model.shrink, 1, 0.3])
+    cases = {
+        "empty.npz": b"",
+        "truncated.npz": data[: len(data) // 2],
+        "corrupted.npz": data[:200] + bytes(200) + data[400:],
+        "text.npz": b"0\t1\t2.0\t3.0\n",
+    }
+    for name, content in cases.items():
+        (tmp_path / name).write_bytes(content)
+    np.save(tmp_path / "array.npy", np.zeros(3))
+    np.savez(tmp_path / "mismatched.npz", features=model.features[:, :-1], futures=model.futures,
+             **arrays)  # fmt: skip
+    for name in [*cases, "array.npy", "mismatched.npz"]:
+        with pytest.raises(ValueError) as error:
+            learned.load(tmp_path / name)
+        message = str(error.value)
+        assert message.startswith(f"{tmp_path / name}: ") and "\n" not in message, name
+        assert "retrain it" in message and "pickle" not in message, message
+    assert "arrays do not match (features of shape" in message
+
+
+def test_a_model_is_written_atomically(tmp_path, monkeypatch):
+    path = model_file(tmp_path)
+    before = path.read_bytes()
+    model = learned.load(path)
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(np.lib.format, "write_array", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        model.save(path)
+    assert path.read_bytes() == before  # the old model, whole
+    assert [p.name for p in tmp_path.iterdir()] == ["model.npz"]  # no part left behind
+    with pytest.raises(ValueError, match=r"^max_windows must be > 0; got -5"):
+        learned.fit(walks(n=20), max_windows=-5)

@@ -6,7 +6,7 @@ import pathlib
 import numpy as np
 import pytest
 
-from dcmppi.tasks.replay import recordings
+from dcmppi.tasks.replay import recordings, scenes
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -62,7 +62,9 @@ def test_environment_variable_names_the_folder(monkeypatch):
 
 def test_a_missing_folder_is_one_error_line_naming_both_ways(monkeypatch, tmp_path):
     monkeypatch.delenv(recordings.CROWDS_ENV, raising=False)
-    with pytest.raises(ValueError, match=r"not part of dcmppi: set DCMPPI_CROWDS=DIR, .*path=DIR"):
+    with pytest.raises(
+        ValueError, match=r"not part of dcmppi: set DCMPPI_CROWDS=DIR, .*folder=DIR"
+    ):
         recordings.load("biwi_eth")
     with pytest.raises(ValueError, match=r"^folder=.*nowhere: no such folder.*DCMPPI_CROWDS") as e:
         recordings.scene("eth", tmp_path / "nowhere")
@@ -76,10 +78,10 @@ def test_a_missing_folder_is_one_error_line_naming_both_ways(monkeypatch, tmp_pa
 def test_a_malformed_file_names_itself(tmp_path):
     path = tmp_path / "bad.txt"
     path.write_text("0\t1\t2.0\n")
-    with pytest.raises(ValueError, match=r"bad\.txt: expected rows of four"):
+    with pytest.raises(ValueError, match=r"bad\.txt line 1: expected four numbers .* got 3"):
         recordings.load(path)
-    path.write_text("0\t1\t2.0\tx\n")
-    with pytest.raises(ValueError, match=r"bad\.txt: not a four-column file"):
+    path.write_text("0\t1\t2.0\t3.0\n0\t1\t2.0\tx\n")
+    with pytest.raises(ValueError, match=r"bad\.txt line 2: 'x' is not a number"):
         recordings.load(path)
 
 
@@ -125,3 +127,19 @@ def test_standard_window_counts():
     folder = crowds()
     counts = {name: len(recordings.windows(recordings.scene(name, folder))) for name in ["eth"]}
     assert counts == {"eth": 364}
+
+
+def test_biwi_eth_is_known_by_its_rows_under_another_name(tmp_path):
+    copy = tmp_path / "renamed.txt"
+    copy.write_bytes((crowds() / "biwi_eth.txt").read_bytes())
+    assert recordings.load(copy).period == pytest.approx(10 / 15)
+    assert recordings.load(copy, period=0.4).period == 0.4
+
+
+def test_the_eight_files_are_read_as_before(tmp_path):
+    folder = crowds()
+    for name in recordings.FILES:
+        found = recordings.examine(name, folder)
+        assert found.frame_step == 10 and not found.problems and not found.notes, name
+        assert found.recording.offset == (0.0, 0.0)
+    assert len(scenes.load_scene(scenes.scene_files("eth", folder)).episodes) == 305

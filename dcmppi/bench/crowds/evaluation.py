@@ -38,7 +38,14 @@ PUBLISHED = {
 
 
 def evaluate(
-    predictors=ROWS, scenes=tuple(recordings.SCENES), folder=None, models=None, seed=0, limit=None
+    predictors=ROWS,
+    scenes=tuple(recordings.SCENES),
+    folder=None,
+    models=None,
+    seed=0,
+    limit=None,
+    period=PERIOD,
+    frame_step=None,
 ) -> dict:
     """Forecast every window of each test scene with each predictor (module docstring).
 
@@ -48,10 +55,14 @@ def evaluate(
     models: {scene: path} of the learned models; a scene without one gets a model trained here
       on its training files with `seed` (a temporary file).
     limit: at most this many windows per scene, evenly spaced (None: every window).
+    period, frame_step: how every file is read (recordings.load): seconds between annotated
+      frames (PERIOD, as the papers read them) and video frames between them (None: inferred).
     Returns {"protocol", "windows": {scene: M}, "models": {scene: {path, sha256, shrink}},
       "rows": {row: {scene: {column: mean}, "average": {column: mean}}}, "published"}.
     """
     folder = recordings.crowds_folder(folder)
+    if limit is not None and (isinstance(limit, bool) or not isinstance(limit, int) or limit < 1):
+        raise ValueError(f"limit must be a count >= 1; got {limit!r}")
     for scene in scenes:
         recordings.train_files(scene)  # an unknown scene: one ValueError
     for name in predictors:
@@ -59,15 +70,16 @@ def evaluate(
             predictor_class(ALIASES.get(name, name))  # an unknown name: one ValueError
     rows = {name: {} for name in predictors}
     counts, used = {}, {}
+    reading = {"period": period, "frame_step": frame_step}
     with tempfile.TemporaryDirectory() as scratch:
         for scene in scenes:
             train = recordings.windows(
-                [recordings.load(f, folder, PERIOD) for f in recordings.train_files(scene)],
+                [recordings.load(f, folder, **reading) for f in recordings.train_files(scene)],
                 OBS,
                 PRED,
             )
             test = _subset(
-                recordings.windows(recordings.scene(scene, folder, PERIOD), OBS, PRED), limit
+                recordings.windows(recordings.scene(scene, folder, **reading), OBS, PRED), limit
             )
             counts[scene] = len(test)
             model = None
@@ -85,7 +97,7 @@ def evaluate(
         "protocol": {
             "obs": OBS,
             "pred": PRED,
-            "period": PERIOD,
+            "period": period,
             "samples": forecasters.SAMPLES,
             "seed": seed,
             "limit": limit,
@@ -108,7 +120,7 @@ def forecaster(name, train, model=None):
         return forecasters.learned_tracks(model)
     params = {"model": str(model)} if ALIASES.get(name, name) == "learned" else {}
     return forecasters.PredictorForecaster(
-        ALIASES.get(name, name), PERIOD, PRED, forecasters.obstacle_model(train), **params
+        ALIASES.get(name, name), train.period, PRED, forecasters.obstacle_model(train), **params
     )
 
 

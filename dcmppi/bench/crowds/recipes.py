@@ -15,7 +15,8 @@ A recipe names its data by one of:
   none is a test environment's), recorded as `dcmppi record` records them
   (`dcmppi.bench.crowds.recording`);
 and may set the training as `dcmppi predictor train` takes it: `seed` (default 0), `period`
-(the frame period every file is read at, default recordings.PERIOD), `max_windows`.
+(the frame period every file is read at, default recordings.PERIOD), `frame_step` (the video
+frames between annotated frames, default: each file's own), `max_windows`.
 
 A string value may name the environment's task parameters in braces: "{scene}" is the task
 parameter `scene` of that environment (the environment index where it is the experiment's
@@ -58,6 +59,7 @@ KEYS = {
     "record": dict,
     "seed": int,
     "period": float,
+    "frame_step": int,
     "max_windows": int,
     "folder": str,
 }
@@ -73,6 +75,7 @@ TRAINING_CODE = (
     "dcmppi.control.predictors.learned.model",
     "dcmppi.control.predictors.learned.training",
     "dcmppi.tasks.replay.recordings",
+    "dcmppi.tasks.replay.checks",
     "dcmppi.bench.crowds.training",
     "dcmppi.bench.crowds.recipes",
 )
@@ -115,7 +118,7 @@ def check(where: str, recipe: dict) -> dict:
                 raise RecipeError(where, f"record.{name}: missing")
         if record["episodes"] < 1 or record["base_seed"] < 0:
             raise RecipeError(where, "record: episodes >= 1 and base_seed >= 0")
-    for name in ("period", "max_windows"):
+    for name in ("period", "frame_step", "max_windows"):
         if name in recipe and not recipe[name] > 0:
             raise RecipeError(where, f"{name}: must be > 0, got {recipe[name]}")
     return recipe
@@ -301,7 +304,12 @@ def build(resolved: dict, path) -> None:
             )
         ]  # fmt: skip
     else:
-        data = training.read(resolved["data"], resolved.get("folder"), resolved["period"])
+        data = training.read(
+            resolved["data"],
+            resolved.get("folder"),
+            resolved["period"],
+            frame_step=resolved.get("frame_step"),
+        )
     path = pathlib.Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     part = path.with_name(f".{path.name}.{os.getpid()}.part")

@@ -129,7 +129,8 @@ REPLAY_NOTE = (
     "of the episodes ('-': not recorded by an older database). Replaced person, own track: "
     "the people the robot replaced, each replayed along their own recorded track under the "
     "task's collision rule; Collisions %: how often that rule counts their own walk as a "
-    "collision ('-': the recordings were not found: set DCMPPI_CROWDS)."
+    "collision ('-': the recordings were not found where the task parameter path, else "
+    "DCMPPI_CROWDS, says)."
 )
 
 SCORE_NOTE = (
@@ -313,14 +314,16 @@ def own_tracks(rows: list[dict], exp: Experiment) -> dict:
         if r["status"] == "ok" and r.get("recording") is not None:
             people.setdefault(r["scene"], set()).add((r["recording"], int(r["person"])))
     path = exp.task_params.get("path")
+    reading = {k: v for k, v in exp.task_params.items() if k in replay.READING}
     out = {}
     for scene in scene_order(people):
         if scene == ALL_SCENES:
             continue
         found = sorted(people[scene])
+        given = replay.given_scene(scene, exp.task_params.get("scene"))
         try:
-            ks = [replay.episode_index(scene, rec, person, path) for rec, person in found]
-            hits = replay.self_collisions(scene, path, episodes=ks)
+            ks = [replay.episode_index(given, r, person, path, **reading) for r, person in found]
+            hits = replay.self_collisions(given, path, episodes=ks, **reading)
             out[scene] = (len(found), rate(int(hits.sum()), len(found)))
         except (ValueError, OSError):  # recordings not at hand: the count only
             out[scene] = (len(found), None)

@@ -19,8 +19,10 @@ constant velocity, m the retrieved futures' mean and lambda = `shrink` (fitted a
 """
 
 import hashlib
+import os
 import pathlib
 import zipfile
+import zlib
 
 import numpy as np
 
@@ -60,7 +62,8 @@ class Model:
 
     def save(self, path):
         """Writes the model to `path`: a numpy .npz of arrays only, the same bytes for the same
-        model (its sha256 identifies it)."""
+        model (its sha256 identifies it); atomically (a temporary file beside it, then renamed),
+        so that an interrupted save leaves no partial model."""
         arrays = {
             "format": np.array(FORMAT),
             "features": self.features,
@@ -70,12 +73,18 @@ class Model:
             ),
             "seed": np.array(self.seed),
         }
-        with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as archive:
-            for name, value in arrays.items():
-                entry = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
-                entry.compress_type = zipfile.ZIP_DEFLATED
-                with archive.open(entry, "w") as f:
-                    np.lib.format.write_array(f, np.asarray(value), allow_pickle=False)
+        path = pathlib.Path(path)
+        part = path.with_name(f".{path.name}.{os.getpid()}.part")
+        try:
+            with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as archive:
+                for name, value in arrays.items():
+                    entry = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+                    entry.compress_type = zipfile.ZIP_DEFLATED
+                    with archive.open(entry, "w") as f:
+                        np.lib.format.write_array(f, np.asarray(value), allow_pickle=False)
+            os.replace(part, path)
+        finally:
+            part.unlink(missing_ok=True)
 
     def forecast(self, observed, others, others_velocity, P, approximation=APPROXIMATION):
         """(L, P, pred, 2) P futures of each of L people at the model's frames 1..pred.
@@ -104,24 +113,72 @@ class Model:
 
 
 def load(path) -> Model:
-    """The Model saved at `path`, or a ValueError naming the file."""
+    """The Model saved at `path`; a ValueError of one line naming the file and how to retrain it
+    when it is missing, not a model (empty, truncated, corrupted, another file) or one whose
+    arrays do not hold together."""
+    arrays = _arrays(path)
+    problem = _mismatch(arrays)
+    if problem:
+        raise ValueError(
+            f"{path}: a learned predictor's model whose arrays do not match ({problem}); {RETRAIN}"
+        )
+    obs, period, shrink, neighbours, social_weight = arrays["settings"]
+    return Model(
+        arrays["features"],
+        arrays["futures"],
+        obs,
+        period,
+        shrink,
+        neighbours,
+        social_weight,
+        int(arrays["seed"]),
+    )
+
+
+RETRAIN = (
+    "retrain it (`dcmppi predictor train ... --out FILE`; a recipe's cached model: delete it and "
+    "the bench trains it again)"
+)
+_ARRAYS = ("format", "features", "futures", "settings", "seed")
+
+
+def _arrays(path) -> dict:
+    """The arrays of the model file at `path`, or the ValueError of `load`."""
     try:
-        with np.load(path, allow_pickle=False) as f:
-            if str(f["format"]) != FORMAT:
-                raise ValueError(f"format {str(f['format'])!r}, expected {FORMAT!r}")
-            obs, period, shrink, neighbours, social_weight = f["settings"]
-            return Model(
-                f["features"],
-                f["futures"],
-                obs,
-                period,
-                shrink,
-                neighbours,
-                social_weight,
-                int(f["seed"]),
-            )
-    except (OSError, KeyError, ValueError) as e:
-        raise ValueError(f"{path}: not a learned predictor's model ({e})") from None
+        with open(path, "rb") as file, np.load(file, allow_pickle=False) as f:
+            return {name: f[name] for name in _ARRAYS}
+    except FileNotFoundError:
+        raise ValueError(f"{path}: no such model file; {RETRAIN}") from None
+    except KeyError as e:
+        missing = str(e.args[0]).removesuffix(".npy")
+        raise ValueError(
+            f"{path}: not a learned predictor's model (no {missing} in it); {RETRAIN}"
+        ) from None
+    except (OSError, ValueError, TypeError, EOFError, zipfile.BadZipFile, zlib.error):
+        raise ValueError(
+            f"{path}: not a learned predictor's model (empty, truncated, corrupted or another "
+            f"kind of file); {RETRAIN}"
+        ) from None
+
+
+def _mismatch(arrays) -> str | None:
+    """What is inconsistent in a model file's arrays, or None."""
+    if arrays["format"].shape != () or str(arrays["format"]) != FORMAT:
+        return f"format {str(arrays['format'])!r}, expected {FORMAT!r}"
+    settings, features, futures = arrays["settings"], arrays["features"], arrays["futures"]
+    if any(arrays[k].dtype.kind not in "fiu" for k in ("features", "futures", "settings", "seed")):
+        return "arrays that are not numbers"
+    if settings.shape != (5,) or arrays["seed"].shape != () or not np.isfinite(settings).all():
+        return f"settings {settings.tolist()}, expected five numbers"
+    obs, period, _, neighbours, _ = settings
+    width = 2 * (int(obs) - 1) + 1 + 4 * int(neighbours)
+    if features.ndim != 2 or features.shape[1] != width or len(features) < 1:
+        return f"features of shape {features.shape}, expected (M, {width})"
+    if futures.ndim != 3 or futures.shape[0] != len(features) or futures.shape[2] != 2:
+        return f"futures of shape {futures.shape}, expected ({len(features)}, pred, 2)"
+    if not (np.isfinite(features).all() and np.isfinite(futures).all() and period > 0):
+        return "values that are not finite"
+    return None
 
 
 def sha256(path) -> str:

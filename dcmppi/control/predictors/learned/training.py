@@ -17,6 +17,7 @@ from dcmppi.control.predictors.learned.model import (
     neighbours_now,
     rotate,
 )
+from dcmppi.control.validation import positive
 
 FIT_K = 20  # retrieved futures per window when fitting the shrink
 FOLDS = 5  # held-out folds of the shrink when the windows come from one recording
@@ -34,7 +35,12 @@ def fit(
 
     max_windows: train on this many windows drawn without replacement by `seed` (None: all).
     Deterministic for a seed.
+
+    Raises:
+      ValueError: max_windows not a count > 0, or fewer than 2 windows.
     """
+    if max_windows is not None:
+        max_windows = positive("max_windows", max_windows, integer=True)
     observed = np.asarray(windows.observed, dtype=float)
     future = np.asarray(windows.future, dtype=float)
     source = np.asarray(windows.source)
@@ -42,7 +48,7 @@ def fit(
     if max_windows is not None and max_windows < len(chosen):
         chosen = np.sort(np.random.default_rng(seed).choice(len(chosen), max_windows, False))
     if len(chosen) < 2:
-        raise ValueError(f"a model needs at least 2 windows; got {len(chosen)}")
+        raise ValueError(f"windows: a model needs at least 2 windows; got {len(chosen)}")
     observed, future, source = observed[chosen], future[chosen], source[chosen]
     others, velocity = neighbours_now([windows.neighbours[i] for i in chosen])
     heading, speed = heading_and_speed(observed)

@@ -61,13 +61,7 @@ def evaluate(
       "rows": {row: {scene: {column: mean}, "average": {column: mean}}}, "published"}.
     """
     folder = recordings.crowds_folder(folder)
-    if limit is not None and (isinstance(limit, bool) or not isinstance(limit, int) or limit < 1):
-        raise ValueError(f"limit must be a count >= 1; got {limit!r}")
-    for scene in scenes:
-        recordings.train_files(scene)  # an unknown scene: one ValueError
-    for name in predictors:
-        if name not in BASELINES and name != "learned-tracks":
-            predictor_class(ALIASES.get(name, name))  # an unknown name: one ValueError
+    _check(predictors, scenes, limit)
     rows = {name: {} for name in predictors}
     counts, used = {}, {}
     reading = {"period": period, "frame_step": frame_step}
@@ -94,21 +88,37 @@ def evaluate(
     for by_scene in rows.values():
         by_scene["average"] = {c: float(np.mean([by_scene[s][c] for s in scenes])) for c in COLUMNS}
     return {
-        "protocol": {
-            "obs": OBS,
-            "pred": PRED,
-            "period": period,
-            "samples": forecasters.SAMPLES,
-            "seed": seed,
-            "limit": limit,
-            "bandwidth_floor": forecast_metrics.BANDWIDTH_FLOOR,
-            "hdr_mass": forecast_metrics.HDR_MASS,
-        },
+        "protocol": _protocol(period, seed, limit),
         "windows": counts,
         "models": used,
         "rows": rows,
         "published": PUBLISHED,
     }
+
+
+def _protocol(period, seed, limit) -> dict:
+    """The settings an evaluation's figures depend on."""
+    return {
+        "obs": OBS,
+        "pred": PRED,
+        "period": period,
+        "samples": forecasters.SAMPLES,
+        "seed": seed,
+        "limit": limit,
+        "bandwidth_floor": forecast_metrics.BANDWIDTH_FLOOR,
+        "hdr_mass": forecast_metrics.HDR_MASS,
+    }
+
+
+def _check(predictors, scenes, limit) -> None:
+    """One ValueError for a bad limit, an unknown scene or an unknown predictor."""
+    if limit is not None and (isinstance(limit, bool) or not isinstance(limit, int) or limit < 1):
+        raise ValueError(f"limit must be a count >= 1; got {limit!r}")
+    for scene in scenes:
+        recordings.train_files(scene)
+    for name in predictors:
+        if name not in BASELINES and name != "learned-tracks":
+            predictor_class(ALIASES.get(name, name))
 
 
 def forecaster(name, train, model=None):

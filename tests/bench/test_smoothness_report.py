@@ -224,6 +224,7 @@ def test_a_schema_7_database_reports_without_the_time_columns_and_upgrades(tmp_p
     assert cells[-3] == f"{rows[2]['time_waiting']:.1f}"  # the one episode that records it
 
 
+@pytest.mark.slow
 def test_a_tiny_replay_run_reports_its_scenes(tmp_path):
     folder = crowds()
     exp = load_experiment("eth-ucy").select(3, ("dc-cv",), ("none",))

@@ -150,6 +150,7 @@ def test_a_person_who_would_appear_on_the_robot_waits_until_its_track_is_clear(t
     assert gap > 2 * people.PEDESTRIAN_RADIUS
 
 
+@pytest.mark.slow
 def test_self_collisions_are_rare_under_the_collision_distance():
     folder = crowds()
     for scene, bound in (("eth", 0.05), ("hotel", 0.05), ("zara1", 0.05), ("zara2", 0.1)):

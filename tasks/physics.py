@@ -339,6 +339,7 @@ class Physics(dm_mujoco.Physics):
                 next_goal,
                 random,
                 self.control_period,
+                world.stop_at_goal,
             )
             return pedestrians, walkers.MAX_SPEED_FACTOR * world.moving_pref_speed.max()
         if len(moving):

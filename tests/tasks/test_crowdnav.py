@@ -202,3 +202,13 @@ def test_orca_moves_the_humans_as_rvo2():
         sim.do_step()
         v = sim.get_agent_velocity(0)
         np.testing.assert_allclose(peds.velocity[i], [v.x, v.y], atol=1e-4)
+
+
+def test_the_goal_is_reached_within_crowdnavs_0_3_m():
+    env = tasks.load("crowdnav", task_kwargs={"n_humans": 0, "random": 0})
+    env.reset()
+    step = env.step(np.array([0.0, 1.0, 0.0]))
+    while not step.last():
+        step = env.step(np.array([0.0, 1.0, 0.0]))
+    y = env.physics.robot_position()[1]
+    assert env.task.outcome == "goal" and 3.7 <= y <= 3.8  # 1 m would have ended near y = 3

@@ -8,7 +8,9 @@ agent's (the robot's or an earlier human's) start or goal. `square_crossing`: ea
 in a uniform half of a SQUARE_WIDTH square (redrawn near another start) and walks to a uniform
 point of the other half (redrawn near another goal). The robot drives from (0, -r) to (0, r) of
 the circle. Humans walk at most v_pref, slow down within 1 m of their goals and stop there
-(walkers.ARRIVAL_TIME); their draws follow CrowdNav's order (random_sample per coordinate).
+(walkers.ARRIVAL_TIME). The draws follow CrowdNav's order (random_sample per coordinate), so
+that `case` k draws CrowdNav's test case k: its humans from RandomState(TEST_SEED + k), as its
+test loop seeds numpy.
 """
 
 import math
@@ -34,6 +36,7 @@ TIME_LIMIT = 25.0  # [s] time_limit (CrowdNav's check ends its episodes at 24 s)
 SUCCESS_DISTANCE = 0.3  # [m] the robot's centre this close to the goal (its radius there)
 HALF_WIDTH = 10.0  # [m] the map is [-HALF_WIDTH, HALF_WIDTH]^2 (CrowdNav's has no edge)
 TRIES = 1000  # draws per human before the scene counts as full
+TEST_SEED = 1000  # CrowdNav seeds test case k with TEST_SEED + k (its val cases come first)
 OBSTACLE_SIDES = 8  # a static cylinder is this polygon's walls for the humans
 
 
@@ -46,7 +49,8 @@ class CrowdNav(PedestrianNavigation):
     radius 0.3 m, from (0, -circle_radius) to (0, circle_radius), done within SUCCESS_DISTANCE;
     time limit TIME_LIMIT. `obstacles` (K, 3) x, y, radius: static cylinders, which the humans see
     as walls (an OBSTACLE_SIDES-gon around each) and whose surface keeps DISCOMFORT_DISTANCE from
-    the humans' starts and goals.
+    the humans' starts and goals. `case` k (an int >= 0, or None): the world of CrowdNav's test
+    case k whatever the episode's seed (its noise still follows the seed).
     """
 
     count_name, radius_name = "n_humans", "human_radius"
@@ -65,6 +69,7 @@ class CrowdNav(PedestrianNavigation):
         circle_radius=CIRCLE_RADIUS,
         square_width=SQUARE_WIDTH,
         obstacles=(),
+        case=None,
         robot_radius=HUMAN_RADIUS,
         time_limit=TIME_LIMIT,
         **kwargs,
@@ -73,6 +78,7 @@ class CrowdNav(PedestrianNavigation):
             raise ValueError(f"scenario must be one of {', '.join(SCENARIOS)}; got {scenario!r}")
         self.scenario = scenario
         self.randomize_attributes = flag("randomize_attributes", randomize_attributes)
+        self.case = None if case is None else positive("case", case, integer=True, allow_zero=True)
         self.circle_radius = positive("circle_radius", circle_radius)
         self.square_width = positive("square_width", square_width)
         self.obstacles = array("obstacles", np.reshape(obstacles, (-1, 3)), ("K", 3), finite=True)
@@ -106,6 +112,8 @@ class CrowdNav(PedestrianNavigation):
         return np.array([[0.0, -self.circle_radius], [0.0, self.circle_radius]])
 
     def generate_world(self, random) -> World:
+        if self.case is not None:
+            random = np.random.RandomState(TEST_SEED + self.case)
         return generate_crowdnav(
             random,
             self.scenario,
@@ -189,7 +197,7 @@ def _circle_human(random, circle_radius, v_pref, radius, agents, obstacles):
     for _ in range(TRIES):
         angle = random.random_sample() * 2.0 * math.pi
         noise = (random.random_sample() - 0.5) * v_pref, (random.random_sample() - 0.5) * v_pref
-        xy = circle_radius * np.array([math.cos(angle), math.sin(angle)]) + noise
+        xy = circle_radius * np.array([np.cos(angle), np.sin(angle)]) + noise
         points = [(xy, a[0], a[2]) for a in agents] + [(xy, a[1], a[2]) for a in agents]
         if _apart(points, radius) and _clear_of(obstacles, radius, xy, -xy):
             return xy, -xy

@@ -98,6 +98,7 @@ def test_shipped_experiments_hold_the_papers_setup():
             "mppi+margin",
         )
         assert crowdnav.task_params == {"behavior": "orca", "robot_visible": visible}
+        assert crowdnav.env_param == "case"  # environment i: CrowdNav's test case i
         assert crowdnav.controller_params == dynamic.controller_params
         oracle = () if visible else ("dc-oracle",)  # the true futures of blind humans only
         assert crowdnav.labels == (

@@ -51,14 +51,38 @@ def test_circle_crossing_geometry(seed):
     _redraw_rule_holds(world)
 
 
-def test_circle_crossing_draws_as_crowdnav():
-    """CrowdNav's first human of a seed: three random() draws (angle, x noise, y noise)."""
-    random = np.random.RandomState(1000)
-    angle, nx, ny = random.random_sample(3)
-    first = CIRCLE_RADIUS * np.array([math.cos(2 * math.pi * angle), math.sin(2 * math.pi * angle)])
-    first += (nx - 0.5, ny - 0.5)
-    world = generate_crowdnav(np.random.RandomState(1000))
-    np.testing.assert_allclose(world.moving[0, :2], first, rtol=0, atol=1e-12)
+def _crowdnavs_case(k, human_num=5, circle_radius=4.0, radius=0.3, v_pref=1.0):
+    """CrowdNav's generate_circle_crossing_human for its test case k, transcribed (crowd_sim.py:
+    np.random.seed(1000 + k), then per human: angle, x noise, y noise until clear); numpy's
+    global np.random.random is a RandomState's random_sample."""
+    random = np.random.RandomState(1000 + k)
+    agents = [(0.0, -circle_radius, 0.0, circle_radius, radius)]  # px, py, gx, gy, radius
+    for _ in range(human_num):
+        while True:
+            angle = random.random_sample() * np.pi * 2
+            px_noise = (random.random_sample() - 0.5) * v_pref
+            py_noise = (random.random_sample() - 0.5) * v_pref
+            px = circle_radius * np.cos(angle) + px_noise
+            py = circle_radius * np.sin(angle) + py_noise
+            collide = False
+            for ax, ay, gx, gy, r in agents:
+                min_dist = radius + r + 0.2
+                if np.hypot(px - ax, py - ay) < min_dist or np.hypot(px - gx, py - gy) < min_dist:
+                    collide = True
+                    break
+            if not collide:
+                break
+        agents.append((px, py, -px, -py, radius))
+    return np.array(agents[1:])
+
+
+def test_case_k_is_crowdnavs_test_case_k():
+    for k in (0, 1, 499):
+        task = tasks.load("crowdnav", task_kwargs={"case": k, "random": k + 7}).task
+        world = task.generate_world(np.random.RandomState(123))  # the seed does not matter
+        expected = _crowdnavs_case(k)
+        np.testing.assert_array_equal(world.moving[:, :2], expected[:, :2])
+        np.testing.assert_array_equal(world.moving_goal, expected[:, 2:4])
 
 
 @pytest.mark.parametrize("seed", range(10))
@@ -162,6 +186,7 @@ def test_static_obstacles_stand_in_the_scene_and_the_humans_walk_around_them():
         ({"obstacles": [[1.0, 1.0, 0.0]]}, "obstacle 0 has radius 0"),
         ({"obstacles": [[1.0, 1.0, 0.5]], "behavior": "hrvo"}, "hrvo ignores obstacles"),
         ({"circle_radius": 12.0}, "leave the map"),
+        ({"case": -1}, "case must be >= 0"),
         ({"behavior": "walk"}, "pedestrian behaviour"),
     ],
 )

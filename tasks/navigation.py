@@ -194,6 +194,7 @@ class Navigation(control.Task):
             self.next_goal,
             world_random,
             self.obstacle_motion(),
+            self.goal_tolerance,
         )
         self._outcome = None
         self._min_clearance = physics.min_clearance

@@ -237,3 +237,5 @@ def test_the_goal_is_reached_within_crowdnavs_0_3_m():
         step = env.step(np.array([0.0, 1.0, 0.0]))
     y = env.physics.robot_position()[1]
     assert env.task.outcome == "goal" and 3.7 <= y <= 3.8  # 1 m would have ended near y = 3
+    model = env.physics.model
+    assert model.geom_size[model.geom("goal").id, 0] == 0.3  # the goal's disc drawn

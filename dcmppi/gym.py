@@ -57,6 +57,7 @@ IDS = {
     "dcmppi/Crowd-v0": "crowd",
     "dcmppi/Corridor-v0": "corridor",
     "dcmppi/Square-v0": "square",
+    "dcmppi/CrowdNav-v0": "crowdnav",
     "dcmppi/Blocked-v0": "blocked",
     "dcmppi/Crossing-v0": "crossing",
     "dcmppi/Layout-v0": "layout",

@@ -70,6 +70,7 @@ class Navigation(control.Task):
     """
 
     default_agent = "dubins"
+    goal_tolerance = GOAL_TOLERANCE  # [m] the goal is reached within this distance of it
 
     def __init__(
         self,
@@ -193,11 +194,13 @@ class Navigation(control.Task):
             self.next_goal,
             world_random,
             self.obstacle_motion(),
+            self.goal_tolerance,
         )
         self._outcome = None
         self._min_clearance = physics.min_clearance
         # what after_step compares with, as floats
         self._goal = tuple(float(v) for v in world.goal)
+        self._goal_tolerance = float(self.goal_tolerance)
         self._map_bounds = tuple(float(v) for v in world.map_bounds)
         self._end_time = self.time_limit - 0.5 * physics.timestep()
         self._noise_std = np.sqrt(self.Sigma)
@@ -240,10 +243,11 @@ class Navigation(control.Task):
         xmin, ymin, xmax, ymax = self._map_bounds
         gx, gy = self._goal
         dx, dy = x - gx, y - gy
+        tolerance = self._goal_tolerance
         if physics.collided:
             self._outcome = "collision"
         # hypot >= max(|dx|, |dy|): np.hypot only where it can be within the tolerance
-        elif max(abs(dx), abs(dy)) <= GOAL_TOLERANCE and np.hypot(dx, dy) <= GOAL_TOLERANCE:
+        elif max(abs(dx), abs(dy)) <= tolerance and np.hypot(dx, dy) <= tolerance:
             self._outcome = "goal"
         elif not (xmin <= x <= xmax and ymin <= y <= ymax):
             self._outcome = "left_map"

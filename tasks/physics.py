@@ -258,7 +258,15 @@ class Physics(dm_mujoco.Physics):
     # Episode set-up -------------------------------------------------------------------------
 
     def set_world(
-        self, world: World, velocity, command, top_speed, next_goal=None, random=None, motion=None
+        self,
+        world: World,
+        velocity,
+        command,
+        top_speed,
+        next_goal=None,
+        random=None,
+        motion=None,
+        goal_tolerance=GOAL_TOLERANCE,
     ):
         """Places robot, goal and obstacles of `world`; clears the records.
 
@@ -271,11 +279,12 @@ class Physics(dm_mujoco.Physics):
         theta, velocity, max_speed [m/s], radius (L,) each row's disc and present (L,) bool:
         a row that is not present holds no obstacle now (radius 0 in `moving_obstacles`, and
         the motion parks it far away, so it touches nothing); world.moving is its state at
-        t = 0 (replay.people.RecordedPeople: rows that recorded people come and go by)."""
+        t = 0 (replay.people.RecordedPeople: rows that recorded people come and go by).
+        goal_tolerance [m]: the radius of the goal's disc."""
         self._place_static(world.static)
         goal = self._m.geom("goal").id
         self._m.geom_pos[goal, :2] = world.goal
-        self._m.geom_size[goal, 0] = GOAL_TOLERANCE
+        self._m.geom_size[goal, 0] = goal_tolerance
         moving = world.moving
         self._size_moving(moving[:, 3] if motion is None else motion.radius)
         self._coming = motion is not None  # rows that obstacles come and go by
@@ -339,6 +348,7 @@ class Physics(dm_mujoco.Physics):
                 next_goal,
                 random,
                 self.control_period,
+                world.stop_at_goal,
             )
             return pedestrians, walkers.MAX_SPEED_FACTOR * world.moving_pref_speed.max()
         if len(moving):

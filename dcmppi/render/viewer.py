@@ -28,7 +28,6 @@ from dcmppi.control.kernels.costs import goal_distance
 from dcmppi.control.objective import Objective
 from dcmppi.render import overlay
 from dcmppi.render.html import page, script_data
-from dcmppi.tasks.worlds.base import GOAL_TOLERANCE
 
 ROLLOUTS = 32  # sampled rollouts drawn per control instant, evenly spread over the K
 FUTURES = 6  # sampled futures drawn per moving obstacle
@@ -88,7 +87,7 @@ class Viewer:
         self.world = {
             "bounds": [float(v) for v in obs["map_bounds"]],
             "goal": [float(v) for v in obs["goal"][:2]],
-            "goal_tolerance": GOAL_TOLERANCE,
+            "goal_tolerance": float(env.task.goal_tolerance),
             "start": [float(v) for v in world.start[:2]],
             "static": np.round(static[static[:, 2] > 0], 3).tolist(),
             "walls": np.round(np.asarray(world.walls).reshape(-1, 4), 3).tolist(),

@@ -7,6 +7,7 @@
     corridor.py the task `corridor` (DRA-MPPI's scene)
     square.py   the task `square` (C-Uniform's scene)
     crowd.py    the task `crowd`: the paper's Dubins cylinders, or walkers
+    crowdnav.py the task `crowdnav` (CrowdNav's circle and square crossings) and its world
 
 The physics (tasks.physics) moves the walkers; the worlds build on tasks.worlds.
 """

@@ -18,7 +18,9 @@ speed, as the social force does. ORCA uses CrowdNav's settings (time horizons 5 
 neighbours). navground computes in float32; positions integrate in float64 here.
 
 A pedestrian within its radius of its goal gets the next from next_goal at the start of the
-next control period: a new goal, or a respawn somewhere else (the density stays).
+next control period: a new goal, or a respawn somewhere else (the density stays). With
+stop_at_goal (CrowdNav's humans) it keeps its goal and stops there instead: its desired speed is
+min(preferred speed, distance to the goal / ARRIVAL_TIME), its top speed the preferred one.
 """
 
 import dataclasses
@@ -35,6 +37,7 @@ from ..worlds.base import BEHAVIOR_CONSTANT
 NEIGHBOR_RANGE = 10.0  # [m] centre distance within which navground's behaviours see others
 MAX_NEIGHBORS = 10  # ORCA's and HRVO's nearest neighbours (CrowdNav's ORCA)
 ORCA_TIME_HORIZON = 5.0  # [s] for other agents and for walls (CrowdNav's ORCA)
+ARRIVAL_TIME = 1.0  # [s] stop_at_goal: near the goal, desired velocity = its offset / this
 
 
 @dataclasses.dataclass(frozen=True)
@@ -107,6 +110,7 @@ class Pedestrians:
         next_goal,
         random,
         dt,
+        stop_at_goal=False,
     ):
         """
         Args:
@@ -122,6 +126,7 @@ class Pedestrians:
             where it is, a position respawns it there (its velocity kept).
           random: np.random.RandomState handed to next_goal.
           dt: control period [s].
+          stop_at_goal: keep the goals and stop at them (module docstring); next_goal unused.
         """
         self._spec = walking(behavior)
         self.behavior = behavior
@@ -138,7 +143,8 @@ class Pedestrians:
         self._pos = position.copy()
         self.z = position[:, 0] + 1j * position[:, 1]
         self.theta = _headings(self.velocity, self.goal - position)
-        self._max_speed = MAX_SPEED_FACTOR * self.pref_speed
+        self._stop_at_goal = bool(stop_at_goal)
+        self._max_speed = (1.0 if stop_at_goal else MAX_SPEED_FACTOR) * self.pref_speed
         self._behaviors = None if self._spec.navground is None else self._navground_behaviors()
 
     def advance(self, n, robot_xy, robot_velocity) -> np.ndarray:
@@ -148,7 +154,8 @@ class Pedestrians:
         if self._robot_visible:
             robot_xy = array("robot_xy", robot_xy, (2,), finite=True)
             robot_velocity = array("robot_velocity", robot_velocity, (2,), finite=True)
-        self._arrivals()
+        if not self._stop_at_goal:
+            self._arrivals()
         start = self._pos
         desired = self._desired()
         if self._behaviors is None:
@@ -187,12 +194,15 @@ class Pedestrians:
                 self.z[i] = complex(*self._pos[i])
 
     def _desired(self):
-        """Desired velocities (L, 2): towards the goals at the preferred speeds."""
+        """Desired velocities (L, 2): towards the goals at the preferred speeds (with
+        stop_at_goal, at most distance / ARRIVAL_TIME)."""
         to_goal = self.goal - self._pos
         distance = np.hypot(*to_goal.T)
         scale = np.divide(
             self.pref_speed, distance, out=np.zeros_like(distance), where=distance > 0
         )
+        if self._stop_at_goal:
+            scale = np.minimum(scale, 1.0 / ARRIVAL_TIME)
         return to_goal * scale[:, None]
 
     def _navground_behaviors(self):

@@ -51,6 +51,8 @@ class World:
       walls: (W, 4) wall segments x0, y0, x1, y1 that the pedestrians see; they walk within
         the box of map_bounds and the walls.
       robot_visible: whether the pedestrians react to the robot.
+      stop_at_goal: whether the pedestrians stop at their first goals (CrowdNav's humans,
+        walkers.Pedestrians) rather than walk on to next ones.
     """
 
     start: np.ndarray
@@ -66,6 +68,7 @@ class World:
     walls: np.ndarray
     behavior: str = BEHAVIOR_CONSTANT
     robot_visible: bool = False
+    stop_at_goal: bool = False
 
 
 def map_bounds(map_size=MAP_SIZE) -> np.ndarray:
@@ -105,6 +108,7 @@ def make_world(
     pref_speed=None,
     walls=None,
     robot_visible=False,
+    stop_at_goal=False,
 ) -> World:
     """A `World` from loose arrays; static gets one padding row when empty."""
     static = np.zeros((1, 3)) if static is None or len(static) == 0 else static
@@ -127,7 +131,12 @@ def make_world(
         value = np.array(value, dtype=np.float64)
         value.flags.writeable = False
         arrays[name] = value
-    return World(**arrays, behavior=str(behavior), robot_visible=bool(robot_visible))
+    return World(
+        **arrays,
+        behavior=str(behavior),
+        robot_visible=bool(robot_visible),
+        stop_at_goal=bool(stop_at_goal),
+    )
 
 
 def impossible(world: World, robot_radius: float) -> tuple[str, int | None] | None:

@@ -16,7 +16,8 @@ MINIMAL = 'task = "blocked"\nepisodes = 2\n[[rows]]\ncontroller = "mppi"\n'
 def test_shipped_experiments_hold_the_papers_setup():
     assert experiment_names() == [
         "barn", "blocked", "corridor", "corridor-mismatch", "corridor-visible", "crowd-sf",
-        "dynamic", "dynamic-dubins", "dynamic-ekf", "eth-ucy", "square-orca", "static",
+        "crowdnav", "crowdnav-visible", "dynamic", "dynamic-dubins", "dynamic-ekf", "eth-ucy",
+        "square-orca", "static",
     ]  # fmt: skip
     static = load_experiment("static")
     assert (static.task, static.episodes, static.base_seed) == ("forest", 1000, 2024)
@@ -89,6 +90,21 @@ def test_shipped_experiments_hold_the_papers_setup():
         "preset": "smooth",
         "perturbation": "correlated",
     }
+    for name, visible in (("crowdnav", False), ("crowdnav-visible", True)):
+        crowdnav = load_experiment(name)
+        assert (crowdnav.task, crowdnav.episodes, crowdnav.reference) == (
+            "crowdnav",
+            500,
+            "mppi+margin",
+        )
+        assert crowdnav.task_params == {"behavior": "orca", "robot_visible": visible}
+        assert crowdnav.env_param == "case"  # environment i: CrowdNav's test case i
+        assert crowdnav.controller_params == dynamic.controller_params
+        oracle = () if visible else ("dc-oracle",)  # the true futures of blind humans only
+        assert crowdnav.labels == (
+            "mppi+margin", "dc", "dc-cv", *oracle, "orca", "hrvo", "social_force"
+        )  # fmt: skip
+    assert "ORCA 0.43 / 0.57 / 10.86 s" in load_experiment("crowdnav").paper_note
     mismatch = load_experiment("corridor-mismatch")
     assert mismatch.row("dc-ekf-walk").params["process_std"] == [0.01, 0.01, 0.3, 0.5, 1.0]
     assert mismatch.labels == (
@@ -104,7 +120,17 @@ def test_shipped_experiments_hold_the_papers_setup():
 
 @pytest.mark.parametrize(
     "name",
-    ["static", "dynamic", "dynamic-dubins", "dynamic-ekf", "corridor", "square-orca", "crowd-sf"],
+    [
+        "static",
+        "dynamic",
+        "dynamic-dubins",
+        "dynamic-ekf",
+        "corridor",
+        "square-orca",
+        "crowd-sf",
+        "crowdnav",
+        "crowdnav-visible",
+    ],  # fmt: skip
 )
 def test_every_shipped_row_builds(name):
     """Each row's controller takes the experiment's parameters with the task's agent (rows

@@ -151,6 +151,7 @@ def test_field_metrics_on_a_synthetic_sequence():
     # A's gaps 2.5, 1.9, 1.3, 0.7, 0.1; B's 1.8 throughout
     assert r["min_ped_gap"] == pytest.approx(0.1)
     assert r["personal_space_share"] == pytest.approx(1 / 5)  # only A's last gap < 0.5
+    assert r["discomfort_frequency"] == pytest.approx(1 / 5)  # and < 0.2
     assert r["min_ttc"] == pytest.approx(0.1 / 1.2)  # A at 0.6 m, closing at 1.2 m/s
     # within 2 m: A four times (1 - 1.2 / 1.5 = 0.2), B five times (standing: 1)
     assert r["ped_speed_loss"] == pytest.approx((4 * 0.2 + 5 * 1.0) / 9)
@@ -161,7 +162,22 @@ def test_field_metrics_on_a_synthetic_sequence():
     # has no pedestrian metrics at all
     assert _play(_Physics(), pref_speed=np.full(2, np.nan))["ped_speed_loss"] is None
     r = _play(_Physics(), moving=0)
-    assert all(r[k] is None for k in ("min_ped_gap", "personal_space_share", "min_ttc"))
+    names = ("min_ped_gap", "personal_space_share", "discomfort_frequency", "min_ttc")
+    assert all(r[k] is None for k in names)
+
+
+class _Brushing(_Physics):
+    """A passes the robot at surface gaps 2.5, 0.4, 0.15, 0.1 and 0.05 m."""
+
+    def moving_obstacles(self):
+        x = (3.0, 0.9, 0.65, 0.6, 0.55)[self.k]
+        return np.array([[x, 0.0, math.pi, 0.3], [0.0, 2.3, 0.0, 0.3]])
+
+
+def test_discomfort_frequency_is_the_share_of_instants_within_crowdnavs_distance():
+    r = _play(_Brushing())
+    assert r["personal_space_share"] == pytest.approx(4 / 5)  # below 0.5 m
+    assert r["discomfort_frequency"] == pytest.approx(3 / 5)  # below 0.2 m
 
 
 class _Walker(_Physics):
@@ -219,6 +235,7 @@ def _result(outcome, kind=None, ttc=math.inf, pedestrians=True, spl_=None):
         "jerk_mean": 2.0,
         "min_ped_gap": 0.4 if pedestrians else None,
         "personal_space_share": 0.1 if pedestrians else None,
+        "discomfort_frequency": 0.05 if pedestrians else None,
         "min_ttc": ttc if pedestrians else None,
         "ped_speed_loss": 0.05 if pedestrians else None,
         "min_clearance": 0.3,
@@ -305,7 +322,7 @@ def test_the_metrics_table_shows_rates_intervals_and_dashes():
     assert dc.startswith("| none | dc | 4 | 50.0 [15.0, 85.0] | 25.0 [4.6, 69.9] | 0.0 [0.0, 49.0]")
     assert "| 0.375 [0.000, 0.750] |" in dc and "| 1.50 [" in dc and "| 5.0 [5.0, 5.0] |" in dc
     mppi = next(x for x in text.splitlines() if "| mppi |" in x)
-    assert mppi.endswith("| 2.0 [2.0, 2.0] | - | - | - | - |")  # jerk applies, pedestrians not
+    assert mppi.endswith("| 2.0 [2.0, 2.0] | - | - | - | - | - |")  # jerk applies, pedestrians not
     assert not re.search(r"\bnan\b", text)  # no nan cell ("Provenance" holds "nan")
 
 

@@ -31,6 +31,7 @@ TASK_PARAMS = {
     "crowd": {"time_limit": 1.5, "n_obstacles": 20},
     "corridor": {"time_limit": 1.5, "n_pedestrians": 4},
     "square": {"time_limit": 1.5, "n_pedestrians": 3},
+    "crowdnav": {"time_limit": 1.5, "n_humans": 3},
     "blocked": {"time_limit": 1.5},
     "crossing": {"time_limit": 1.5},
     "layout": {"time_limit": 1.5, "path": str(BARN)},

@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 
 from dcmppi.bench.episodes.metrics import (
+    DISCOMFORT,
     FREE_SPACE,
     NEAR,
     PERSONAL_SPACE,
@@ -289,6 +290,17 @@ COLUMNS = (
         since=4,
         tables=("metrics",),
         title="Personal space",
+        digits=1,
+        percent=True,
+    ),
+    Column(
+        "discomfort_frequency",
+        "REAL",
+        f"CrowdNav's discomfort frequency: the share of the control instants with a pedestrian's "
+        f"surface within {DISCOMFORT:g} m of the robot's",
+        since=9,
+        tables=("metrics",),
+        title="Discomfort",
         digits=1,
         percent=True,
     ),

@@ -96,6 +96,7 @@ def _count_labels(labels):
 
 
 PERSONAL_SPACE = 0.5  # [m] a pedestrian's surface this close to the robot's is in its space
+DISCOMFORT = 0.2  # [m] CrowdNav's discomfort distance (discomfort_dist), surface to surface
 NEAR = 2.0  # [m] pedestrians this close (surface to surface) count in the speed loss
 WAIT_SPEED = 0.1  # [m/s] a step slower than this (its mean speed) is waiting
 FREE_SPACE = 2.0  # [m] no obstacle's surface this close to the robot's: in free space
@@ -179,6 +180,7 @@ class FieldMetrics:
         self.instants = 0
         self.min_gap = math.inf
         self.personal = 0
+        self.discomfort = 0
         self.min_ttc = math.inf
         self.loss_sum = 0.0
         self.loss_count = 0
@@ -188,9 +190,10 @@ class FieldMetrics:
         """Record the state of `physics` now: with the robot's position r and velocity w, each
         obstacle's centre p, radius R and velocity u, rel = p - r and the gap |rel| - R -
         robot_radius (np.hypot), the instant's smallest gap, whether any is below
-        PERSONAL_SPACE, its smallest time_to_collision(rel, u - w, R + robot_radius), and with
-        preferred speeds s the sum (np.sum) of 1 - |u| / s (np.hypot) over the gaps below NEAR;
-        and the robot's position and the clearance."""
+        PERSONAL_SPACE and whether any is below DISCOMFORT, its smallest
+        time_to_collision(rel, u - w, R + robot_radius), and with preferred speeds s the sum
+        (np.sum) of 1 - |u| / s (np.hypot) over the gaps below NEAR; and the robot's position
+        and the clearance."""
         robot_v = physics.robot_velocity()[:2]
         self.velocity.append(robot_v)
         self.position.append(physics.robot_position())
@@ -208,6 +211,7 @@ class FieldMetrics:
         self.instants += 1
         self.min_gap = min(self.min_gap, gap)
         self.personal += personal
+        self.discomfort += gap < DISCOMFORT
         self.min_ttc = min(self.min_ttc, ttc)
         if self.pref_speed is not None:
             self.loss_sum += loss
@@ -216,7 +220,8 @@ class FieldMetrics:
     def result(self) -> dict:
         """jerk_mean [m/s^3]; with moving obstacles (else None): min_ped_gap [m] (surface to
         surface), personal_space_share (share of the instants with a pedestrian within
-        PERSONAL_SPACE), min_ttc [s] (inf: never on a collision course); ped_speed_loss: mean
+        PERSONAL_SPACE), discomfort_frequency (CrowdNav's: the share of the instants with one
+        within DISCOMFORT), min_ttc [s] (inf: never on a collision course); ped_speed_loss: mean
         over instants and pedestrians within NEAR of 1 - speed / preferred speed (None without
         preferred speeds or with none near); and `time_use`'s."""
         crowd = self.pedestrians
@@ -225,6 +230,7 @@ class FieldMetrics:
             "jerk_mean": mean_jerk(self.velocity, self.dt),
             "min_ped_gap": self.min_gap if crowd else None,
             "personal_space_share": self.personal / self.instants if crowd else None,
+            "discomfort_frequency": self.discomfort / self.instants if crowd else None,
             "min_ttc": self.min_ttc if crowd else None,
             "ped_speed_loss": self.loss_sum / self.loss_count if self.loss_count else None,
         }

@@ -370,7 +370,6 @@ class Episode:
     def result(self) -> EpisodeResult:
         """The metrics of the finished episode (see `run_episode`)."""
         from dcmppi.tasks.worlds.barn import navigation_score
-        from dcmppi.tasks.worlds.base import GOAL_TOLERANCE
 
         path = self.path
         outcome = self.env.task.outcome
@@ -397,7 +396,9 @@ class Episode:
             if optimal is None
             else navigation_score(outcome == "goal", elapsed, optimal),
             "path_length": length,
-            "spl": spl(outcome == "goal", world.start[:2], world.goal, GOAL_TOLERANCE, length),
+            "spl": spl(
+                outcome == "goal", world.start[:2], world.goal, self.env.task.goal_tolerance, length
+            ),
             **self.metrics.result(),
             "min_clearance": float(self.env.task.min_clearance),
             "ctrl_ms_mean": float(ctrl_ms.mean()) if ctrl_ms.size else 0.0,

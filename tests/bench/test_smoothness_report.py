@@ -140,6 +140,7 @@ def _old_database(tmp_path, schema=5):
     return exp, path, before
 
 
+@pytest.mark.slow
 def test_a_schema_5_database_reports_and_upgrades_keeping_its_rows(tmp_path):
     exp, path, before = _old_database(tmp_path)
     text = write_report(path, tmp_path / "out", plots=False)  # read-only: nothing converted
@@ -160,6 +161,7 @@ def test_a_schema_5_database_reports_and_upgrades_keeping_its_rows(tmp_path):
         assert kept.fetchall() == before
 
 
+@pytest.mark.slow
 def test_a_schema_6_database_reports_its_path_sides_and_upgrades(tmp_path):
     exp, path, before = _old_database(tmp_path, schema=6)
     text = write_report(path, tmp_path / "out", plots=False)  # read-only: nothing converted
@@ -185,6 +187,7 @@ def test_a_schema_6_database_reports_its_path_sides_and_upgrades(tmp_path):
         assert kept.fetchall()[:2] == before
 
 
+@pytest.mark.slow
 def test_a_schema_7_database_reports_without_the_time_columns_and_upgrades(tmp_path):
     assert ADDED[8] == ("time_waiting", "time_slow", "detour")
     assert SCHEMA_VERSION == 9 and ADDED[9] == ("discomfort_frequency",)

@@ -120,9 +120,11 @@ def test_sys_exit_and_exceptions_are_error_rows_with_tracebacks(crashing):
 def test_a_stuck_episode_times_out_and_the_run_goes_on(crashing):
     db = Results()
     start = time.monotonic()
-    run_all(episodes("Sleeper", "Steady"), db, workers=1, progress=False, episode_timeout=3.0)
+    # The clock includes a fresh worker's start-up: 15 s leaves room for a loaded machine
+    # (parallel tests) and still tells the 600 s sleeper from the 2 s episode.
+    run_all(episodes("Sleeper", "Steady"), db, workers=1, progress=False, episode_timeout=15.0)
     assert db.results[("none", "Sleeper", 0)] == {
-        "error": "timeout: no result after 3 s (--episode-timeout)"
+        "error": "timeout: no result after 15 s (--episode-timeout)"
     }
     assert db.results[("none", "Steady", 0)]["outcome"] == "time_limit"
     assert time.monotonic() - start < 60

@@ -100,9 +100,10 @@ def test_shipped_experiments_hold_the_papers_setup():
         assert crowdnav.task_params == {"behavior": "orca", "robot_visible": visible}
         assert crowdnav.env_param == "case"  # environment i: CrowdNav's test case i
         assert crowdnav.controller_params == dynamic.controller_params
-        oracle = () if visible else ("dc-oracle",)  # the true futures of blind humans only
+        # the true futures of blind humans; a social prediction of humans who react
+        extra = ("dc-social",) if visible else ("dc-oracle",)
         assert crowdnav.labels == (
-            "mppi+margin", "dc", "dc-cv", *oracle, "orca", "hrvo", "social_force"
+            "mppi+margin", "dc", "dc-cv", *extra, "orca", "hrvo", "social_force"
         )  # fmt: skip
     assert "ORCA 0.43 / 0.57 / 10.86 s" in load_experiment("crowdnav").paper_note
     mismatch = load_experiment("corridor-mismatch")

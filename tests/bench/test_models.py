@@ -164,6 +164,7 @@ def test_the_square_rows_recipe_records_other_seeds_and_builds(cache):
     assert not recorded & {exp.seed(i) for i in range(exp.episodes)}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["crowdnav", "crowdnav-visible"])
 def test_the_crowdnav_rows_record_humans_of_no_test_case(name):
     """The recorded episodes of the dc-learned row (drawn as `recording.record` draws them)

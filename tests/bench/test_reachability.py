@@ -65,6 +65,7 @@ def test_a_task_whose_pedestrians_react_is_refused():
         reach(exp.spec("none", "mppi", 0))
 
 
+@pytest.mark.slow
 def test_the_goal_region_is_the_tasks_crowdnavs_0_3_m():
     """An empty CrowdNav scene: the ideal robot meets the 0.3 m goal region 7.7 m from its start
     (the 1 m region of other tasks would be met at 7 m)."""

@@ -126,6 +126,24 @@ def test_reach_refuses_pedestrians_that_react(capsys):
     assert len(err) == 1 and "reachability needs obstacles whose paths do not depend" in err[0]
 
 
+@pytest.mark.parametrize(
+    ("param", "message"),
+    [
+        ("scenario=ring", "scenario must be one of circle_crossing, square_crossing; got 'ring'"),
+        ("n_humans=-1", "n_humans must be >= 0"),
+        ("circle_radius=0.3", "closer than the start spacing 0.8 m (2 robot_radius + 0.2): raise "
+                              "circle_radius to >= 0.4"),
+        ("obstacles=[[0, -4, 0.5]]", "touches the robot at its start (0, -4): move or shrink it"),
+        ("circle_radius=0.6", "only 2 of 5 humans fit in circle_crossing"),
+    ],
+)  # fmt: skip
+def test_crowdnavs_bad_input_ends_in_one_line_naming_the_fix(param, message, capsys):
+    argv = ["run", "--task", "crowdnav", "--controller", "orca", "--task-param", param]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err
+
+
 def test_each_command_is_a_module_with_its_parser_and_handler():
     subparsers = next(a for a in cli.build_parser()._actions if a.dest == "command").choices
     names = [module.__name__.rsplit(".", 1)[1] for module in cli.COMMANDS]

@@ -99,8 +99,16 @@ class CrowdNav(PedestrianNavigation):
         _check_obstacles(self.obstacles, self._robot_points(), self.robot_radius, self.behavior)
         if self.circle_radius + self.robot_radius >= HALF_WIDTH:
             raise ValueError(
-                f"the robot's start and goal (0, -/+{self.circle_radius:g}) leave the map "
-                f"[-{HALF_WIDTH:g}, {HALF_WIDTH:g}]^2: lower circle_radius"
+                f"the robot's start and goal (0, -/+{self.circle_radius:g}) with its radius "
+                f"{self.robot_radius:g} m leave the map [-{HALF_WIDTH:g}, {HALF_WIDTH:g}]^2: "
+                "lower circle_radius or robot_radius"
+            )
+        spacing = 2.0 * self.robot_radius + DISCOMFORT_DISTANCE  # _apart's, robot to robot
+        if 2.0 * self.circle_radius < spacing:
+            raise ValueError(
+                f"the robot's goal lies {2.0 * self.circle_radius:g} m from its start, closer "
+                f"than the start spacing {spacing:g} m (2 robot_radius + {DISCOMFORT_DISTANCE:g}):"
+                f" raise circle_radius to >= {0.5 * spacing:g}"
             )
 
     @property
@@ -165,9 +173,10 @@ def generate_crowdnav(
             speeds[i], radii[i] = random.uniform(*RANDOM_V_PREF), random.uniform(*RANDOM_RADIUS)
         placed = draw(random, size, speeds[i], radii[i], agents, obstacles)
         if placed is None:
+            size_name = "circle_radius" if scenario == "circle_crossing" else "square_width"
             raise ValueError(
                 f"only {i} of {n_humans} humans fit in {scenario} ({DISCOMFORT_DISTANCE:g} m "
-                f"apart, clear of the robot and the obstacles): lower n_humans"
+                f"apart, clear of the robot and the obstacles): lower n_humans or raise {size_name}"
             )
         agents.append((*placed, radii[i]))
     xy = np.array([a[0] for a in agents[1:]]).reshape(-1, 2)

@@ -17,7 +17,7 @@ def test_shipped_experiments_hold_the_papers_setup():
     assert experiment_names() == [
         "barn", "blocked", "corridor", "corridor-mismatch", "corridor-visible", "crowd-sf",
         "crowdnav", "crowdnav-visible", "dynamic", "dynamic-dubins", "dynamic-ekf", "eth-ucy",
-        "square-orca", "static",
+        "eth-ucy-reactive", "square-orca", "static",
     ]  # fmt: skip
     static = load_experiment("static")
     assert (static.task, static.episodes, static.base_seed) == ("forest", 1000, 2024)
@@ -103,8 +103,23 @@ def test_shipped_experiments_hold_the_papers_setup():
         # the true futures of blind humans; a social prediction of humans who react
         extra = ("dc-social",) if visible else ("dc-oracle",)
         assert crowdnav.labels == (
-            "mppi+margin", "dc", "dc-cv", *extra, "orca", "hrvo", "social_force"
+            "mppi+margin", "dc", "dc-cv", *extra, "dc-learned", "orca", "hrvo", "social_force"
         )  # fmt: skip
+        assert crowdnav.row("dc-learned").params == square.row("dc-learned").params
+    eth_ucy, reactive = load_experiment("eth-ucy"), load_experiment("eth-ucy-reactive")
+    assert reactive.task_params == {
+        **eth_ucy.task_params, "reactive": True, "pedestrian_radius": 0.3, "robot_radius": 0.3
+    }  # fmt: skip
+    assert (reactive.task, reactive.env_param, reactive.episodes) == ("replay", "episode", 500)
+    others = [load_experiment(n).base_seed for n in experiment_names() if n != "eth-ucy-reactive"]
+    assert reactive.base_seed not in others  # a seed of its own
+    # eth-ucy's rows but the true futures, which people who react to the robot have none of,
+    # and with a social prediction of people who react
+    rows = [label for label in eth_ucy.labels if label != "dc-oracle"]
+    rows.insert(rows.index("dc-cv") + 1, "dc-social")
+    assert reactive.labels == tuple(rows)
+    assert all(reactive.row(r).params == eth_ucy.row(r).params for r in rows if r != "dc-social")
+    assert reactive.controller_params == eth_ucy.controller_params
     assert "ORCA 0.43 / 0.57 / 10.86 s" in load_experiment("crowdnav").paper_note
     mismatch = load_experiment("corridor-mismatch")
     assert mismatch.row("dc-ekf-walk").params["process_std"] == [0.01, 0.01, 0.3, 0.5, 1.0]

@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from dcmppi import cli
+from dcmppi import cli, tasks
 from dcmppi.bench.crowds import recipes, recording
 from dcmppi.bench.episodes.runner import check_specs
 from dcmppi.bench.episodes.seeds import environment_seed
@@ -162,6 +162,35 @@ def test_the_square_rows_recipe_records_other_seeds_and_builds(cache):
     # the recorded episodes' seeds are none of the test environments'
     recorded = {environment_seed(record["base_seed"], e) for e in range(200)}
     assert not recorded & {exp.seed(i) for i in range(exp.episodes)}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["crowdnav", "crowdnav-visible"])
+def test_the_crowdnav_rows_record_humans_of_no_test_case(name):
+    """The recorded episodes of the dc-learned row (drawn as `recording.record` draws them)
+    hold none of the humans of CrowdNav's test cases, environment i's case i."""
+    exp = load_experiment(name)
+    env_params = {**exp.task_params, exp.env_param: 0}
+    recipe = recipes.resolve(
+        "dc-learned", exp.row("dc-learned").params["model"], exp, env_params, 0
+    )
+    record = recipe["record"]
+    assert record["task"] == "crowdnav" and exp.env_param not in record["task_params"]
+    case = tasks.task_class("crowdnav")(**exp.task_params, case=0)
+
+    def humans(world):
+        return tuple(np.round(world.moving[:, :2], 9).ravel())
+
+    tested = set()
+    for k in range(exp.episodes):
+        case.case = k
+        tested.add(humans(case.generate_world(None)))
+    assert len(tested) == exp.episodes
+    for e in range(record["episodes"]):
+        seed = environment_seed(record["base_seed"], e)
+        env = tasks.load("crowdnav", task_kwargs={**record["task_params"], "random": seed})
+        env.reset()
+        assert humans(env.task.world) not in tested, f"recorded episode {e} is a test case"
 
 
 def test_record_writes_eth_ucy_files_that_train(tmp_path, capsys):

@@ -66,6 +66,16 @@ def test_a_task_whose_pedestrians_react_is_refused():
 
 
 @pytest.mark.slow
+def test_the_goal_region_is_the_tasks_crowdnavs_0_3_m():
+    """An empty CrowdNav scene: the ideal robot meets the 0.3 m goal region 7.7 m from its start
+    (the 1 m region of other tasks would be met at 7 m)."""
+    exp = load_experiment("crowdnav").with_params({"n_humans": 0}, {})
+    r = reach(exp.spec("none", "mppi+margin", 0))
+    assert r.solvable and r.goal_distance <= 0.3
+    assert 7.7 / 1.02 <= r.time <= 7.7 / 0.984 + 0.1
+
+
+@pytest.mark.slow
 def test_square_environment_zero_is_solvable_in_about_the_straight_time():
     exp = load_experiment("square-orca")
     r = reach(exp.spec("none", "dc-cv", 0))

@@ -13,7 +13,7 @@ from dcmppi.bench.episodes.runner import EpisodeSpec
 from dcmppi.bench.experiments import load_experiment
 from dcmppi.bench.reports.report import table
 from dcmppi.bench.results.database import SCHEMA_VERSION, ConfigMismatch, ResultsDB
-from dcmppi.bench.results.stats import mcnemar_exact, paired, summarize, wilson
+from dcmppi.bench.results.stats import mcnemar_exact, paired, replay_scenes, summarize, wilson
 
 CONFIG = {
     "task": "forest",
@@ -117,6 +117,19 @@ def test_mcnemar_matches_the_exact_binomial_test():
     for b, c in [(0, 0), (1, 0), (5, 1), (12, 30), (7, 7)]:
         expected = 1.0 if b + c == 0 else stats.binomtest(b, b + c, 0.5).pvalue
         assert mcnemar_exact(b, c) == pytest.approx(expected)
+
+
+@pytest.mark.parametrize(("task", "frozen"), [("replay", 2), ("crowdnav", 1)])
+def test_a_timeout_froze_near_the_goal_by_its_tasks_goal_tolerance(task, frozen):
+    """Timeouts 1.2 and 1.9 m from the goal: within 1 m of the replay's 1 m goal region both,
+    of crowdnav's 0.3 m region only the first."""
+    rows = [
+        {"status": "ok", "noise": "none", "label": "a", "scene": "eth", "task": task,
+         "outcome": "time_limit", "collision": 0, "goal_distance": d}
+        for d in (1.2, 1.9)
+    ]  # fmt: skip
+    s = replay_scenes(rows)[("none", "a", "eth")]
+    assert s["frozen"][0] == 50 * frozen and s["elsewhere"][0] == 100 - 50 * frozen
 
 
 def test_summary_and_table_match_the_rows():

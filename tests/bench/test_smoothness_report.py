@@ -105,6 +105,7 @@ def test_replays_per_scene_ratios_and_freezing():
         _row("dc", 3, scene="univ", outcome="time_limit", time_to_goal=None, goal_distance=5.0),
         _row("dc", 4, scene="univ", outcome="collision", collision=1, time_to_goal=None),
     ]  # fmt: skip
+    rows = [{**r, "task": "replay"} for r in rows]  # frozen: within the replay's 1 m + 1 m
     stats = replay_scenes(rows)
     eth, univ, every = (stats[("none", "dc", s)] for s in ("eth", "univ", "all"))
     assert eth["path_ratio"][0] == pytest.approx(1.1)  # (1.2 + 1.0) / 2

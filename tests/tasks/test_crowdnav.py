@@ -185,7 +185,13 @@ def test_static_obstacles_stand_in_the_scene_and_the_humans_walk_around_them():
         ({"obstacles": [[0.0, 4.2, 0.5]]}, "touches the robot at its goal (0, 4)"),
         ({"obstacles": [[1.0, 1.0, 0.0]]}, "obstacle 0 has radius 0"),
         ({"obstacles": [[1.0, 1.0, 0.5]], "behavior": "hrvo"}, "hrvo ignores obstacles"),
-        ({"circle_radius": 12.0}, "leave the map"),
+        ({"circle_radius": 12.0}, "leave the map [-10, 10]^2: lower circle_radius or"),
+        ({"robot_radius": 9.5}, "with its radius 9.5 m leave the map"),
+        (
+            {"circle_radius": 0.35},
+            "the robot's goal lies 0.7 m from its start, closer than the start",
+        ),
+        ({"robot_radius": 1.0, "circle_radius": 1.0}, "raise circle_radius to >= 1.1"),
         ({"case": -1}, "case must be >= 0"),
         ({"behavior": "walk"}, "pedestrian behaviour"),
     ],
@@ -196,9 +202,13 @@ def test_bad_input_is_one_line_naming_the_problem(kwargs, message):
     assert message in str(error.value) and "\n" not in str(error.value)
 
 
-def test_a_crowd_that_does_not_fit_says_so():
-    env = tasks.load("crowdnav", task_kwargs={"n_humans": 60})
-    with pytest.raises(ValueError, match="humans fit in circle_crossing .*: lower n_humans"):
+@pytest.mark.parametrize("scenario, size", [("circle_crossing", "circle_radius"),
+                                            ("square_crossing", "square_width")])  # fmt: skip
+def test_a_crowd_that_does_not_fit_says_so(scenario, size):
+    env = tasks.load("crowdnav", task_kwargs={"n_humans": 300, "scenario": scenario})
+    with pytest.raises(
+        ValueError, match=f"humans fit in {scenario} .*: lower n_humans or raise {size}$"
+    ):
         env.reset()
 
 

@@ -6,8 +6,8 @@ The robot is absent: it is parked far away and still while the obstacles step by
 model (`dcmppi.bench.episodes.futures.obstacle_tracks`, what the true futures use), so the
 crowd walks as it would with nobody else there, whether or not it could see a robot
 (`robot_visible`). The recordings are of crowds without a robot, as ETH/UCY's are, and where an
-experiment's pedestrians are blind to the robot (square-orca), its test episodes move exactly
-as recorded ones of their seeds would.
+experiment's pedestrians are blind to the robot (square-orca, crowdnav), its test episodes move
+exactly as recorded ones of their seeds would.
 
 Episode e is the task with `random` = SeedSequence([base_seed, e])'s first word
 (`environment_seed`: what an experiment of that base seed gives environment e), run for `seconds`
@@ -24,7 +24,7 @@ from dcmppi.bench.episodes import futures
 from dcmppi.bench.episodes.seeds import environment_seed
 from dcmppi.tasks.replay import recordings
 
-WITH_PEDESTRIANS = ("square", "corridor", "crowd")  # named in errors: tasks with walkers
+WITH_PEDESTRIANS = ("square", "corridor", "crowd", "crowdnav")  # named in errors: with walkers
 
 
 def record(

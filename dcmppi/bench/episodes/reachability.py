@@ -13,9 +13,9 @@ free = inside the map, outside every static cylinder and every moving one, each 
 the robot's radius; h is the control period. The grid's cell is v_max h / STEP_CELLS and a step
 reaches the cells within STEP_REACH cell widths: over many steps the frontier moves at
 0.984-1.020 x v_max in every direction (the convex hull of those lattice points).
-An environment is `unavoidable` when R empties before it meets the goal region
-(GOAL_TOLERANCE): every controller collides or leaves the map there; `solvable` when R meets
-the goal region within the time limit.
+An environment is `unavoidable` when R empties before it meets the goal region (the disc of
+the task's goal_tolerance): every controller collides or leaves the map there; `solvable` when R
+meets the goal region within the time limit.
 
 Nearly all approximations favour the robot, so the count of unavoidable environments is a lower
 bound: obstacles are checked at instants h apart (a graze between two instants is missed), a
@@ -56,8 +56,6 @@ class Reach:
 def reach(spec: EpisodeSpec) -> Reach:
     """The reachable set of the ideal robot in the episode of `spec` (its task and seed; the
     controller plays no part). A ValueError where the moving obstacles react to the robot."""
-    from dcmppi.tasks.worlds.base import GOAL_TOLERANCE
-
     env = make_env(spec)
     world, task = reset_exogenous(env, spec.task, "reachability"), env.task
     dt = env.control_timestep()
@@ -65,7 +63,7 @@ def reach(spec: EpisodeSpec) -> Reach:
     return propagate(
         world.start[:2],
         world.goal,
-        GOAL_TOLERANCE,
+        task.goal_tolerance,
         world.map_bounds,
         world.static[world.static[:, 2] > 0],
         obstacle_tracks(env, steps),

@@ -38,6 +38,7 @@ from dcmppi.bench.results.stats import (
     diagnostics,
     field_metrics,
     fmt,
+    frozen_within,
     noise_order,
     paired,
     paired_scores,
@@ -50,7 +51,6 @@ from dcmppi.bench.results.stats import (
     summarize,
 )
 from dcmppi.render.html import Table
-from dcmppi.tasks.worlds.base import GOAL_TOLERANCE
 
 METRICS_NOTE = (
     "Per row over its finished episodes. Rates in % with 95 % Wilson intervals: success (the "
@@ -125,7 +125,7 @@ REPLAY_NOTE = (
     "to the goal over theirs; each the mean of the per-episode ratios over the successful "
     "episodes, 95 % bootstrap interval. Frozen: timeouts that ended within "
     f"{FREEZE_MARGIN:g} m of the goal region (the final position within "
-    f"{GOAL_TOLERANCE + FREEZE_MARGIN:g} m of the goal); elsewhere: the other timeouts; in % "
+    f"{frozen_within('replay'):g} m of the goal); elsewhere: the other timeouts; in % "
     "of the episodes ('-': not recorded by an older database). Replaced person, own track: "
     "the people the robot replaced, each replayed along their own recorded track under the "
     "task's collision rule; Collisions %: how often that rule counts their own walk as a "

@@ -18,8 +18,7 @@ import numpy as np
 
 from dcmppi.bench.episodes import columns
 from dcmppi.bench.episodes.columns import Column
-from dcmppi.tasks import NOISE_PROFILES
-from dcmppi.tasks.worlds.base import GOAL_TOLERANCE
+from dcmppi.tasks import NOISE_PROFILES, task_class
 
 Z95 = 1.959963984540054
 BOOTSTRAP = 10_000  # resamples of a bootstrap interval
@@ -238,8 +237,8 @@ def replay_scenes(rows: list[dict]) -> dict[tuple[str, str, str], dict]:
     path_ratio and time_ratio (mean, lo, hi, n) with bootstrap intervals, over the successful
     episodes, of frame_path_length / human_path_length (both paths sampled at the recording's
     frame period) and time_to_goal / human_time; frozen and elsewhere (pct, lo, hi) of the
-    episodes: timeouts that ended within GOAL_TOLERANCE + FREEZE_MARGIN of the goal's centre
-    (goal_distance), and the other timeouts (None where goal_distance is not recorded). {}
+    episodes: timeouts that ended within the task's goal tolerance + FREEZE_MARGIN of the goal's
+    centre (goal_distance), and the other timeouts (None where goal_distance is not recorded). {}
     without replays."""
     groups = defaultdict(list)
     for r in rows:
@@ -262,11 +261,7 @@ def replay_scenes(rows: list[dict]) -> dict[tuple[str, str, str], dict]:
         ]
         timeouts = [r for r in ok if r["outcome"] == "time_limit"]
         known = all(r.get("goal_distance") is not None for r in timeouts)
-        near = (
-            sum(r["goal_distance"] <= GOAL_TOLERANCE + FREEZE_MARGIN for r in timeouts)
-            if known
-            else 0
-        )
+        near = sum(r["goal_distance"] <= frozen_within(r["task"]) for r in timeouts) if known else 0
         out[key] = {
             "episodes": n,
             "success": rate(len(goals), n),
@@ -278,6 +273,12 @@ def replay_scenes(rows: list[dict]) -> dict[tuple[str, str, str], dict]:
             "elsewhere": rate(len(timeouts) - near, n) if known else None,
         }
     return out
+
+
+def frozen_within(task: str) -> float:
+    """The distance [m] from the goal's centre within which a timeout of `task` froze near the
+    goal: its goal tolerance (the task class's) + FREEZE_MARGIN."""
+    return task_class(task).goal_tolerance + FREEZE_MARGIN
 
 
 def scene_order(scenes) -> list[str]:

@@ -6,6 +6,8 @@ i = 0..N-1 and terminal cost phi = psi for x_N, Alg. 2; docs/design.md):
     c(x_i) = |p_i - goal| + alpha 1[x_i in the static cost map]
              + w sum_j 1[|p_i - o_j(t_i)| <= d_j]   (the moving-obstacle term)
 
+plus, when a Pace is given, its terms for time to the goal (dcmppi.control.pace; off by default).
+
 The static map is the planner's OccupancyGrid of the static cylinders (and the map bounds). The
 tracks o_j, their distances d_j and the weight w come from the step's Prediction (a predictor's:
 frozen obstacles with w = alpha, or P sampled futures per obstacle with w = beta / P).
@@ -26,9 +28,11 @@ class Objective:
       goal: (2,) float x, y. grid: OccupancyGrid of the static map. alpha: static collision
         weight.
       prediction: the step's Prediction of the moving obstacles.
+      pace: a Pace (dcmppi.control.pace) whose terms J adds, or None; start: (2,) the step's
+        position (its path_align line starts there), with a pace.
     """
 
-    def __init__(self, goal, grid, alpha, prediction):
+    def __init__(self, goal, grid, alpha, prediction, pace=None, start=None):
         if not isinstance(prediction, Prediction):
             raise TypeError(
                 f"a predictor must return a dcmppi.control.Prediction; got "
@@ -38,6 +42,7 @@ class Objective:
         self.grid = grid
         self.alpha = alpha
         self.prediction = prediction
+        self.pace, self.start = pace, start
         self.weight = float(prediction.weight)
         self.tracks = (
             TrackIndex(prediction.tracks, prediction.distance)
@@ -54,6 +59,8 @@ class Objective:
             J = goal_distance(x, y, self.goal, cols)
         else:
             J = static_costs(x, y, self.goal, self.grid, self.alpha, cols)
+        if self.pace is not None:
+            J += self.pace(x, y, self.start, self.goal, cols)
         term = None
         if not self.tracks.empty:
             term = self.weight * self.tracks.count(x, y, cols)

@@ -25,11 +25,13 @@ from dcmppi.control.kernels.projection import NO_SUMS, bound, project_columns
 from dcmppi.control.kernels.sums import importance_of
 from dcmppi.control.kernels.threads import parts, run
 from dcmppi.control.objective import Objective
+from dcmppi.control.pace import PACE_PARAMS, Pace
 from dcmppi.control.planners.diagnostics import Diagnostics
 from dcmppi.control.planners.observations import observed_rows, observed_velocity, state_and_goal
 from dcmppi.control.planners.rollouts import Rollouts, start_states
 from dcmppi.control.planners.sampling import Sampler, correlation_param, perturbation_param
 from dcmppi.control.planners.smoothing import PlanFilter
+from dcmppi.control.planners.speeds import polar_means, speed_mean_param
 from dcmppi.control.planners.temperature import (
     AUTO,
     COLLISION_NATS,
@@ -82,9 +84,14 @@ class Controller:
       filter_window, filter_order: the Savitzky-Golay filter of the plan
         (dcmppi.control.planners.smoothing), its odd window (>= 3; 0: no filter, the default;
         "smooth": 9) and polynomial order (< window; default 2).
+      cost_to_go, path_align, speed_weight: weights >= 0 of the objective's terms for time to
+        the goal (dcmppi.control.pace; 0: off, the default).
+      speed_mean: how the update averages the norm-bounded velocity (dcmppi.control.planners
+        .speeds): "vector" (the paper's weighted mean, the default) or "polar" (the weighted
+        mean's direction at the samples' weighted mean speed).
     Attributes: agent, predictor, sampler (sampling.Sampler), plan_filter
-      (smoothing.PlanFilter), objective (the last step's), diagnostics (the last step's), timer
-      (the profile's hook, dcmppi.control.timer).
+      (smoothing.PlanFilter), pace (dcmppi.control.pace.Pace), objective (the last step's),
+      diagnostics (the last step's), timer (the profile's hook, dcmppi.control.timer).
 
     A subclass implements `_solve(state)` -> (nu,) controls, and may override the seams of a
     step's per-sample work (perturbed_rollouts). sample() runs once per step on the calling
@@ -126,6 +133,10 @@ class Controller:
         preset=None,
         filter_window=None,
         filter_order=None,
+        cost_to_go=None,
+        path_align=None,
+        speed_weight=None,
+        speed_mean=None,
         **other,
     ):
         self.preset = choice("preset", "paper" if preset is None else preset, tuple(PRESETS))
@@ -152,6 +163,7 @@ class Controller:
         self.obstacle_margin = positive("obstacle_margin", obstacle_margin, allow_zero=True)
         self.threads = positive("threads", threads, integer=True)
         self.seed = seed_param(seed)
+        self._pace_options(cost_to_go, path_align, speed_weight, speed_mean)
         self._components(predictor, predictor_params, filter_window, filter_order)
         # gamma lambda Sigma^-1 of the importance term, per control (lambda = 1 with "auto")
         lam = 1.0 if self.lambda_ == AUTO else self.lambda_
@@ -185,7 +197,21 @@ class Controller:
         "agent", "robot_radius", "dt", "K", "N", "lambda_", "ess_target", "Sigma", "gamma",
         "alpha", "beta", "P", "seed", "perturbation", "correlation", "resolution",
         "obstacle_margin", "threads", "prediction", "preset", "filter_window", "filter_order",
+        *PACE_PARAMS, "speed_mean",
     )  # fmt: skip
+
+    def _pace_options(self, cost_to_go, path_align, speed_weight, speed_mean):
+        """The objective's Pace and the update's speed_mean, of the given or the preset's
+        values."""
+        given = (cost_to_go, path_align, speed_weight)
+        weights = {n: self.option(n, v, 0.0) for n, v in zip(PACE_PARAMS, given, strict=True)}
+        self.pace = Pace.of(self.agent.max_speed, self.dt, **weights)
+        self.cost_to_go, self.path_align, self.speed_weight = (
+            getattr(self.pace, n) for n in PACE_PARAMS
+        )
+        self.speed_mean = speed_mean_param(
+            self.option("speed_mean", speed_mean, "vector"), self.agent
+        )
 
     def option(self, name, value, default):
         """A parameter's value: `value` when given (not None), else the preset's, else
@@ -279,7 +305,8 @@ class Controller:
             prediction = self.predictor.predict(
                 state, moving, obstacle_model, self.rng, **self._inputs(state, velocity, futures)
             )
-            self.objective = Objective(goal, self._grid, self.alpha, prediction)
+            pace = self.pace if self.pace.on else None
+            self.objective = Objective(goal, self._grid, self.alpha, prediction, pace, state[:2])
         self.diagnostics.prediction = prediction
         u = self._solve(state)
         self.diagnostics.action = u
@@ -394,6 +421,15 @@ class Controller:
             lam = choose_lambda(S, self.ess_target, self._last_lambda, self._lambda_max)
         self._last_lambda = lam
         return lam
+
+    def mean_speeds(self, U, u, w, labels=None):
+        """The updates U (N, nu), or (M, N, nu) one per cluster of `labels` (K,), with
+        speed_mean "polar" at the weighted mean speeds of the samples' controls u (N, nu, K)
+        (weights w (K,), each cluster's summing to 1); U itself with "vector"."""
+        if self.speed_mean == "vector":
+            return U
+        with self.timer("update"):
+            return polar_means(U, u, w, self.agent.norm_axes, labels)
 
     def smoothed(self, plan):
         """The plan (N, nu) through the plan's filter (smoothing.PlanFilter), or itself without

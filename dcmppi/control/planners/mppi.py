@@ -79,6 +79,7 @@ class MPPI(Controller):
         lam = self.temperature(S)
         with self.timer("update"):
             plan, w = mppi_update(self.U, r.e, S, lam)
+        plan = self.mean_speeds(plan, r.u, w)
         self.record(r.e, r.states, r.J, S)
         d = self.diagnostics
         d.weights, d.ess, d.lambda_ = w, effective_sample_size(w), lam

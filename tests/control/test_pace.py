@@ -73,7 +73,8 @@ def speed(path):
     "option", [{"speed_mean": "polar"}, {"speed_weight": 5.0}, {"cost_to_go": 50.0}]
 )
 def test_speed_options_raise_the_speed_to_an_open_goal(controller, option):
-    base, faster = speed(drive(controller=controller)), speed(drive(controller=controller, **option))
+    base = speed(drive(controller=controller))
+    faster = speed(drive(controller=controller, **option))
     assert base < faster <= 1.5 + 1e-9
 
 
@@ -94,3 +95,17 @@ def test_path_align_keeps_to_the_straight_line(controller):
 def test_bad_options_are_named(params, message):
     with pytest.raises(ValueError, match=message):
         dcmppi.make_controller("mppi", **params)
+
+
+def test_a_preset_sets_the_options_and_gamma(monkeypatch):
+    fast = {"speed_mean": "polar", "gamma": 0.1, "path_align": 1.0}
+    monkeypatch.setitem(dcmppi.control.defaults.PRESETS, "fast", fast)
+    ctrl = dcmppi.make_controller("dc", agent="holonomic", preset="fast")
+    assert (ctrl.speed_mean, ctrl.gamma, ctrl.pace.path_align) == ("polar", 0.1, 1.0)
+    given = dcmppi.make_controller("dc", agent="holonomic", preset="fast", gamma=1.0)
+    assert given.gamma == 1.0
+
+
+def test_the_importance_term_drags_a_velocity_robot():
+    # gamma lambda U0^T Sigma^-1 e is least for perturbations against the warm start: slower
+    assert speed(drive(gamma=0.1)) > speed(drive()) + 0.1

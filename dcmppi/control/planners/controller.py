@@ -59,7 +59,8 @@ class Controller:
       Sigma: sampling variance of each control, in its own units (default: the agent's, e.g.
         0.1 (rad/s)^2 for a turn rate, 1 (m/s)^2 for a velocity); a number for 1 control.
       gamma: weight of the importance term gamma lambda sum_i u_i^T Sigma^-1 eps_i (1: paper;
-        lambda = 1 there with lambda_="auto").
+        lambda = 1 there with lambda_="auto"); a preset may set it. For a velocity-commanded
+        robot the term favours samples slower than the warm start.
       alpha: static collision weight. beta: dynamic collision weight (sampled futures).
       P: futures per moving obstacle. seed: int, None or np.random.Generator.
       perturbation: "constant" (one eps per sample over the horizon, paper Sec. IV-A),
@@ -119,7 +120,7 @@ class Controller:
         lambda_=None,
         ess_target=None,
         Sigma=None,
-        gamma=defaults.GAMMA,
+        gamma=None,
         alpha=defaults.ALPHA,
         beta=defaults.BETA,
         P=defaults.P,
@@ -151,7 +152,7 @@ class Controller:
         self.lambda_ = temperature_param(self.option("lambda_", lambda_, defaults.LAMBDA))
         self.ess_target = share("ess_target", self.option("ess_target", ess_target, ESS_TARGET))
         self.Sigma = self.agent.variances(Sigma)
-        self.gamma = positive("gamma", gamma, allow_zero=True)
+        self.gamma = positive("gamma", self.option("gamma", gamma, defaults.GAMMA), allow_zero=True)
         self.alpha = positive("alpha", alpha, allow_zero=True)
         self.beta = positive("beta", beta, allow_zero=True)
         self.P = positive("P", P, integer=True)

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 import dcmppi
-from dcmppi.control.pace import Pace
-from dcmppi.control.planners.speeds import polar_means
+from dcmppi.control.objective import Pace
+from dcmppi.control.planners.mppi import polar_means
 
 GOAL = np.array([30.0, 0.0])
 SMOOTH = {"agent": "holonomic", "preset": "smooth", "perturbation": "correlated"}

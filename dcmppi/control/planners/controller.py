@@ -24,14 +24,12 @@ from dcmppi.control.kernels.perturbations import Draw
 from dcmppi.control.kernels.projection import NO_SUMS, bound, project_columns
 from dcmppi.control.kernels.sums import importance_of
 from dcmppi.control.kernels.threads import parts, run
-from dcmppi.control.objective import Objective
-from dcmppi.control.pace import PACE_PARAMS, Pace
+from dcmppi.control.objective import PACE_PARAMS, Objective, Pace
 from dcmppi.control.planners.diagnostics import Diagnostics
 from dcmppi.control.planners.observations import observed_rows, observed_velocity, state_and_goal
 from dcmppi.control.planners.rollouts import Rollouts, start_states
 from dcmppi.control.planners.sampling import Sampler, correlation_param, perturbation_param
 from dcmppi.control.planners.smoothing import PlanFilter
-from dcmppi.control.planners.speeds import polar_means, speed_mean_param
 from dcmppi.control.planners.temperature import (
     AUTO,
     COLLISION_NATS,
@@ -86,12 +84,9 @@ class Controller:
         (dcmppi.control.planners.smoothing), its odd window (>= 3; 0: no filter, the default;
         "smooth": 9) and polynomial order (< window; default 2).
       cost_to_go, path_align, speed_weight: weights >= 0 of the objective's terms for time to
-        the goal (dcmppi.control.pace; 0: off, the default).
-      speed_mean: how the update averages the norm-bounded velocity (dcmppi.control.planners
-        .speeds): "vector" (the paper's weighted mean, the default) or "polar" (the weighted
-        mean's direction at the samples' weighted mean speed).
+        the goal (dcmppi.control.objective.Pace; 0: off, the default).
     Attributes: agent, predictor, sampler (sampling.Sampler), plan_filter
-      (smoothing.PlanFilter), pace (dcmppi.control.pace.Pace), objective (the last step's),
+      (smoothing.PlanFilter), pace (objective.Pace), objective (the last step's),
       diagnostics (the last step's), timer (the profile's hook, dcmppi.control.timer).
 
     A subclass implements `_solve(state)` -> (nu,) controls, and may override the seams of a
@@ -134,16 +129,13 @@ class Controller:
         preset=None,
         filter_window=None,
         filter_order=None,
-        cost_to_go=None,
-        path_align=None,
-        speed_weight=None,
-        speed_mean=None,
         **other,
     ):
         self.preset = choice("preset", "paper" if preset is None else preset, tuple(PRESETS))
         self.prediction = prediction or self.default_prediction
         predictor = predictor_for(self.prediction)
         predictor_params = {n: other.pop(n) for n in predictor.own_params if n in other}
+        pace = {n: other.pop(n, None) for n in PACE_PARAMS}
         self.agent = make_agent(agent, **other)
         self.robot_radius = positive("robot_radius", robot_radius, allow_zero=True)
         self.dt = positive("dt", dt)
@@ -164,8 +156,7 @@ class Controller:
         self.obstacle_margin = positive("obstacle_margin", obstacle_margin, allow_zero=True)
         self.threads = positive("threads", threads, integer=True)
         self.seed = seed_param(seed)
-        self._pace_options(cost_to_go, path_align, speed_weight, speed_mean)
-        self._components(predictor, predictor_params, filter_window, filter_order)
+        self._components(predictor, predictor_params, filter_window, filter_order, pace)
         # gamma lambda Sigma^-1 of the importance term, per control (lambda = 1 with "auto")
         lam = 1.0 if self.lambda_ == AUTO else self.lambda_
         self._importance_weight = (self.gamma * lam) / self.Sigma
@@ -174,9 +165,10 @@ class Controller:
         self._grid = self.objective = self.rng = None
         self.reset(seed)
 
-    def _components(self, predictor, predictor_params, filter_window, filter_order):
+    def _components(self, predictor, predictor_params, filter_window, filter_order, pace):
         """The step's components from the checked parameters: the sampler, the plan's filter
-        (of the given or the preset's window and order) and the predictor (of the class
+        (of the given or the preset's window and order), the objective's Pace (of the given
+        or the preset's weights `pace`, {name: value or None}) and the predictor (of the class
         `predictor`, with its own parameters)."""
         self.sampler = Sampler(
             self.agent, self.Sigma, self.N, self.K, self.perturbation, self.correlation,
@@ -188,6 +180,11 @@ class Controller:
             self.option("filter_order", filter_order, 2),
         )
         self.filter_window, self.filter_order = self.plan_filter.window, self.plan_filter.order
+        weights = {n: self.option(n, v, 0.0) for n, v in pace.items()}
+        self.pace = Pace.of(self.agent.max_speed, self.dt, **weights)
+        self.cost_to_go, self.path_align, self.speed_weight = (
+            getattr(self.pace, n) for n in PACE_PARAMS
+        )
         self.predictor = predictor(
             N=self.N, dt=self.dt, robot_radius=self.robot_radius,
             max_speed=self.agent.max_speed, alpha=self.alpha, beta=self.beta, P=self.P,
@@ -198,21 +195,8 @@ class Controller:
         "agent", "robot_radius", "dt", "K", "N", "lambda_", "ess_target", "Sigma", "gamma",
         "alpha", "beta", "P", "seed", "perturbation", "correlation", "resolution",
         "obstacle_margin", "threads", "prediction", "preset", "filter_window", "filter_order",
-        *PACE_PARAMS, "speed_mean",
+        *PACE_PARAMS,
     )  # fmt: skip
-
-    def _pace_options(self, cost_to_go, path_align, speed_weight, speed_mean):
-        """The objective's Pace and the update's speed_mean, of the given or the preset's
-        values."""
-        given = (cost_to_go, path_align, speed_weight)
-        weights = {n: self.option(n, v, 0.0) for n, v in zip(PACE_PARAMS, given, strict=True)}
-        self.pace = Pace.of(self.agent.max_speed, self.dt, **weights)
-        self.cost_to_go, self.path_align, self.speed_weight = (
-            getattr(self.pace, n) for n in PACE_PARAMS
-        )
-        self.speed_mean = speed_mean_param(
-            self.option("speed_mean", speed_mean, "vector"), self.agent
-        )
 
     def option(self, name, value, default):
         """A parameter's value: `value` when given (not None), else the preset's, else
@@ -422,15 +406,6 @@ class Controller:
             lam = choose_lambda(S, self.ess_target, self._last_lambda, self._lambda_max)
         self._last_lambda = lam
         return lam
-
-    def mean_speeds(self, U, u, w, labels=None):
-        """The updates U (N, nu), or (M, N, nu) one per cluster of `labels` (K,), with
-        speed_mean "polar" at the weighted mean speeds of the samples' controls u (N, nu, K)
-        (weights w (K,), each cluster's summing to 1); U itself with "vector"."""
-        if self.speed_mean == "vector":
-            return U
-        with self.timer("update"):
-            return polar_means(U, u, w, self.agent.norm_axes, labels)
 
     def smoothed(self, plan):
         """The plan (N, nu) through the plan's filter (smoothing.PlanFilter), or itself without

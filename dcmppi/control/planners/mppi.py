@@ -1,4 +1,13 @@
-"""Baseline MPPI (paper Alg. 1) over an analytic agent model."""
+"""Baseline MPPI (paper Alg. 1) over an analytic agent model, the base of the other planners.
+
+The update's mean of a norm-bounded velocity (option speed_mean):
+- "vector": the paper's U = U0 + sum_k w_k e_k. Its velocity is a weighted mean of samples inside
+  the disc |v| <= v_max: samples that spread in direction average to a speed below the top one,
+  so a plan that should go straight at full speed cannot reach it.
+- "polar": each step's velocity keeps the vector mean's direction, at the weighted mean of the
+  samples' speeds sum_k w_k |v_k| (at most v_max: feasible), so samples at the top speed in
+  spread directions average to the top speed. Other controls keep the vector mean.
+"""
 
 import numba
 import numpy as np
@@ -7,6 +16,8 @@ from dcmppi.control.kernels.libm import nan_min
 from dcmppi.control.kernels.sums import pairwise, sum_of_squares, weighted_rows
 from dcmppi.control.planners.controller import Controller
 from dcmppi.control.planners.registry import register
+
+SPEED_MEANS = ("vector", "polar")
 
 
 def mppi_weights(S, lambda_):
@@ -54,6 +65,40 @@ def mppi_update(U0, eps, S, lambda_):
     return weighted_rows(U0, eps, w), w
 
 
+def speed_mean_param(value, agent):
+    """One of SPEED_MEANS; "polar" only for an agent with a norm-bounded pair of controls (a
+    ValueError names the fix otherwise)."""
+    if value not in SPEED_MEANS:
+        raise ValueError(f"speed_mean must be one of {SPEED_MEANS}; got {value!r}")
+    if value == "polar" and (agent.norm_axes is None or len(agent.norm_axes) != 2):
+        raise ValueError(
+            f"speed_mean='polar' needs an agent with a norm-bounded velocity (holonomic); "
+            f"agent {agent.name!r} has none: use speed_mean='vector'"
+        )
+    return value
+
+
+def polar_means(U, u, w, axes, labels=None):
+    """U (N, nu) (or (M, N, nu), one per cluster) with each step's velocity, controls `axes`
+    (2,), scaled to the weighted mean speed of the samples u (N, nu, K) under weights w (K,)
+    (with labels (K,): cluster m's samples, labels == m, each cluster's weights summing to 1).
+    A zero velocity stays zero."""
+    a, b = axes
+    speeds = np.hypot(u[:, a, :], u[:, b, :])  # (N, K)
+    single = U.ndim == 2
+    U = np.array(U[None] if single else U, dtype=float)
+    if labels is None:
+        mean = (speeds @ w)[None]  # (1, N)
+    else:
+        member = labels[None, :] == np.arange(len(U))[:, None]  # (M, K)
+        mean = (member * w) @ speeds.T  # (M, N)
+    norm = np.hypot(U[..., a], U[..., b])
+    scale = np.divide(mean, norm, out=np.zeros_like(norm), where=norm > 0)
+    U[..., a] *= scale
+    U[..., b] *= scale
+    return U[0] if single else U
+
+
 def effective_sample_size(w):
     """1 / sum w^2 of normalised weights (the sum in dcmppi.control.kernels.sums' fixed order)."""
     return float(1.0 / sum_of_squares(np.ascontiguousarray(w, dtype=float)))
@@ -66,7 +111,27 @@ class MPPI(Controller):
     Each step: sample K perturbations, roll out clip(U0 + eps), S = J + importance term,
     U = U0 + sum w eps (w at the step's lambda, Controller.temperature), apply U[0], shift U as
     the next warm start.
+
+    Extra arg: speed_mean, how the update averages a norm-bounded velocity (module docstring):
+    "vector" (the paper's, the default) or "polar" (holonomic agents).
     """
+
+    own_params = ("speed_mean",)
+
+    def __init__(self, *, speed_mean=None, **params):
+        super().__init__(**params)
+        self.speed_mean = speed_mean_param(
+            self.option("speed_mean", speed_mean, "vector"), self.agent
+        )
+
+    def mean_speeds(self, U, u, w, labels=None):
+        """The updates U (N, nu), or (M, N, nu) one per cluster of `labels` (K,), with
+        speed_mean "polar" at the weighted mean speeds of the samples' controls u (N, nu, K)
+        (weights w (K,), each cluster's summing to 1); U itself with "vector"."""
+        if self.speed_mean == "vector":
+            return U
+        with self.timer("update"):
+            return polar_means(U, u, w, self.agent.norm_axes, labels)
 
     def record(self, eps, states, J, S):
         d = self.diagnostics

@@ -83,20 +83,29 @@ def polar_means(U, u, w, axes, labels=None):
     (2,), scaled to the weighted mean speed of the samples u (N, nu, K) under weights w (K,)
     (with labels (K,): cluster m's samples, labels == m, each cluster's weights summing to 1).
     A zero velocity stays zero."""
-    a, b = axes
-    speeds = np.hypot(u[:, a, :], u[:, b, :])  # (N, K)
-    single = U.ndim == 2
+    single = np.ndim(U) == 2
     U = np.array(U[None] if single else U, dtype=float)
-    if labels is None:
-        mean = (speeds @ w)[None]  # (1, N)
-    else:
-        member = labels[None, :] == np.arange(len(U))[:, None]  # (M, K)
-        mean = (member * w) @ speeds.T  # (M, N)
-    norm = np.hypot(U[..., a], U[..., b])
-    scale = np.divide(mean, norm, out=np.zeros_like(norm), where=norm > 0)
-    U[..., a] *= scale
-    U[..., b] *= scale
+    labels = np.zeros(len(w), dtype=np.intp) if labels is None else np.asarray(labels, np.intp)
+    _scale_speeds(U, np.asarray(u, dtype=float), np.asarray(w, dtype=float), labels, *axes)
     return U[0] if single else U
+
+
+@numba.njit(cache=True)
+def _scale_speeds(U, u, w, labels, a, b):
+    """polar_means in place on U (M, N, nu): one pass over the samples per step."""
+    m, n = U.shape[0], U.shape[1]
+    mean = np.zeros((m, n))
+    for i in range(n):
+        for k in range(len(w)):
+            c = labels[k]
+            if 0 <= c < m:
+                mean[c, i] += w[k] * np.sqrt(u[i, a, k] ** 2 + u[i, b, k] ** 2)
+    for c in range(m):
+        for i in range(n):
+            norm = np.sqrt(U[c, i, a] ** 2 + U[c, i, b] ** 2)
+            scale = mean[c, i] / norm if norm > 0 else 0.0
+            U[c, i, a] *= scale
+            U[c, i, b] *= scale
 
 
 def effective_sample_size(w):

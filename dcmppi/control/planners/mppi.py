@@ -6,7 +6,9 @@ The update's mean of a norm-bounded velocity (option speed_mean):
   so a plan that should go straight at full speed cannot reach it.
 - "polar": each step's velocity keeps the vector mean's direction, at the weighted mean of the
   samples' speeds sum_k w_k |v_k| (at most v_max: feasible), so samples at the top speed in
-  spread directions average to the top speed. Other controls keep the vector mean.
+  spread directions average to the top speed. Other controls keep the vector mean. It also
+  drops the vector mean's slowing where the weighted samples disagree in direction (an
+  obstacle ahead with ways round on both sides).
 """
 
 import numba

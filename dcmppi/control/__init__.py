@@ -4,7 +4,7 @@ MPPI / Clustered / DC / Tube planners, in layers (each imports only those above 
     kernels/         compiled numerics: rollouts, costs, draws, projection, sums, DBSCAN
     agents/          dubins, unicycle, holonomic: bounds and rollouts (register_agent)
     predictors/      frozen, prior, ekf, cv, social, given, learned: the moving obstacles' futures
-    objective.py     Objective: goal distance + static cost map + moving-obstacle term
+    objective.py     Objective: goal distance + static cost map + moving-obstacle term (+ Pace)
     planners/        Controller and mppi, clustered, dc, tube, their smoothing; the classical
                      orca, hrvo, hl, social_force, dwa; the controllers' registry
     defaults.py, validation.py, registry.py, timer.py   defaults, checks, named registries,

@@ -6,15 +6,29 @@ i = 0..N-1 and terminal cost phi = psi for x_N, Alg. 2; docs/design.md):
     c(x_i) = |p_i - goal| + alpha 1[x_i in the static cost map]
              + w sum_j 1[|p_i - o_j(t_i)| <= d_j]   (the moving-obstacle term)
 
+plus, when a Pace is given, terms for time to the goal (off by default). Far from the goal a
+sideways step costs almost nothing (a lateral offset y at distance D adds about y^2 / 2D). Pace
+adds, per rollout from p_0 (the step's position) to the goal g,
+
+    cost_to_go   * |p_N - g|                            (the distance left at the horizon)
+    path_align   * sum_i dist(p_i, line p_0 -> g)        (nav2's PathAlignCritic on the straight
+                                                          path to the goal)
+    speed_weight * sum_i (v_max - |p_{i+1} - p_i| / dt)  (speed below the top speed)
+
+in the cost's units (the goal term: 1 per metre per state); a weight 0 turns a term off.
+
 The static map is the planner's OccupancyGrid of the static cylinders (and the map bounds). The
 tracks o_j, their distances d_j and the weight w come from the step's Prediction (a predictor's:
 frozen obstacles with w = alpha, or P sampled futures per obstacle with w = beta / P).
 """
 
+import dataclasses
+
 import numpy as np
 
 from dcmppi.control.kernels.costs import TrackIndex, goal_distance, static_costs
 from dcmppi.control.predictors import Prediction
+from dcmppi.control.validation import positive
 
 NO_TRACKS = TrackIndex(np.zeros((0, 1, 2)), np.zeros(0))
 
@@ -26,9 +40,11 @@ class Objective:
       goal: (2,) float x, y. grid: OccupancyGrid of the static map. alpha: static collision
         weight.
       prediction: the step's Prediction of the moving obstacles.
+      pace: a Pace whose terms J adds, or None; start: (2,) the step's
+        position (its path_align line starts there), with a pace.
     """
 
-    def __init__(self, goal, grid, alpha, prediction):
+    def __init__(self, goal, grid, alpha, prediction, pace=None, start=None):
         if not isinstance(prediction, Prediction):
             raise TypeError(
                 f"a predictor must return a dcmppi.control.Prediction; got "
@@ -38,6 +54,7 @@ class Objective:
         self.grid = grid
         self.alpha = alpha
         self.prediction = prediction
+        self.pace, self.start = pace, start
         self.weight = float(prediction.weight)
         self.tracks = (
             TrackIndex(prediction.tracks, prediction.distance)
@@ -54,6 +71,8 @@ class Objective:
             J = goal_distance(x, y, self.goal, cols)
         else:
             J = static_costs(x, y, self.goal, self.grid, self.alpha, cols)
+        if self.pace is not None:
+            J += self.pace(x, y, self.start, self.goal, cols)
         term = None
         if not self.tracks.empty:
             term = self.weight * self.tracks.count(x, y, cols)
@@ -65,3 +84,54 @@ class Objective:
         if self.tracks.empty:
             return np.zeros(states.shape[2])
         return self.weight * self.tracks.count(states[0], states[1])
+
+
+PACE_PARAMS = ("cost_to_go", "path_align", "speed_weight")
+
+
+@dataclasses.dataclass(frozen=True)
+class Pace:
+    """The weights of the terms above, the agent's top speed v_max [m/s] and the period dt [s].
+
+    Build with Pace.of(cost_to_go=..., ...), which checks the weights."""
+
+    cost_to_go: float = 0.0
+    path_align: float = 0.0
+    speed_weight: float = 0.0
+    v_max: float = 1.0
+    dt: float = 0.1
+
+    @classmethod
+    def of(cls, v_max, dt, **weights):
+        """Pace of the weights (None: 0), each a number >= 0 (a ValueError names a bad one)."""
+        checked = {
+            n: positive(n, 0.0 if weights.get(n) is None else weights[n], allow_zero=True)
+            for n in PACE_PARAMS
+        }
+        return cls(**checked, v_max=float(v_max), dt=float(dt))
+
+    @property
+    def on(self):
+        """Whether any term has a weight."""
+        return bool(self.cost_to_go or self.path_align or self.speed_weight)
+
+    def __call__(self, x, y, start, goal, cols=None):
+        """The terms' sum (R,) for the rollouts x, y (N + 1, R) from the step's position
+        start (2,) to goal (2,); only the columns cols = (j0, j1) when given."""
+        if cols is not None:
+            x, y = x[:, cols[0] : cols[1]], y[:, cols[0] : cols[1]]
+        gx, gy = float(goal[0]), float(goal[1])
+        out = np.zeros(x.shape[1])
+        if self.cost_to_go:
+            out += self.cost_to_go * np.hypot(x[-1] - gx, y[-1] - gy)
+        if self.path_align:
+            x0, y0 = float(start[0]), float(start[1])
+            ex, ey = gx - x0, gy - y0
+            norm = np.hypot(ex, ey)
+            if norm > 0:
+                lateral = np.abs((x - x0) * (ey / norm) - (y - y0) * (ex / norm))
+                out += self.path_align * lateral.sum(axis=0)
+        if self.speed_weight:
+            speed = np.hypot(np.diff(x, axis=0), np.diff(y, axis=0)) / self.dt
+            out += self.speed_weight * (self.v_max - speed).sum(axis=0)
+        return out

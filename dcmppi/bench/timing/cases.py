@@ -147,7 +147,16 @@ VARIANTS = (
 # others so that a machine's older fingerprints stay comparable
 CORRELATED = {"agent": "holonomic", "perturbation": "correlated"}
 PRESET_VARIANTS = SMOOTH_CASES + (Case("clustered correlated", "clustered", "forest", CORRELATED),)
-FINGERPRINT_CASES = BASE_CASES + VARIANTS + PRESET_VARIANTS
+# the options for time to the goal (dcmppi.control.pace, planners.speeds), after those
+PACE = {"cost_to_go": 10.0, "path_align": 1.0, "speed_weight": 1.0}
+POLAR = {"speed_mean": "polar"}
+PACE_VARIANTS = (
+    Case("dc-cv+smooth pace", "dc", "corridor", {**CV, **SMOOTH, **PACE}),
+    Case("dc-cv+smooth polar", "dc", "corridor", {**CV, **SMOOTH, **POLAR}),
+    Case("mppi+smooth polar", "mppi", "corridor", {**WALK, **SMOOTH, **POLAR}),
+    Case("tube holonomic polar", "tube", "forest+push", {"agent": "holonomic", **POLAR}),
+)
+FINGERPRINT_CASES = BASE_CASES + VARIANTS + PRESET_VARIANTS + PACE_VARIANTS
 
 # `--profile`
 PROFILE_CASES = (

@@ -4,7 +4,7 @@
     sampling.py      the perturbations of a step's samples (Sampler)
     rollouts.py      a step's samples rolled out (Rollouts)
     observations.py  the checks of what act() observes
-    mppi.py          baseline MPPI (paper Alg. 1)
+    mppi.py          baseline MPPI (paper Alg. 1) and its update (speed_mean)
     clustered.py     Clustered MPPI (Alg. 2): DBSCAN over the rollouts, Alg. 1 per cluster
     dc.py            DC-MPPI (Alg. 3): Clustered MPPI with sampled obstacle futures
     tube.py          Tube-MPPI (Williams et al. 2018)

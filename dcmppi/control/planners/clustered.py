@@ -256,6 +256,7 @@ class ClusteredMPPI(MPPI):
         if labels.max(initial=-1) < 0:  # no cluster: Alg. 1 over all samples
             with timer("update"):
                 plan, w = mppi_update(self.U, eps, S, lam)
+            plan = self.mean_speeds(plan, r.u, w)
             d.chosen, d.continued = -1, -1
             d.cluster_controls = np.zeros((0, self.N, self.nu))
             d.cluster_costs = np.zeros(0)
@@ -266,6 +267,7 @@ class ClusteredMPPI(MPPI):
                 U, w = cluster_updates(
                     self.U, eps, S, lam, labels, raw[0] if scalar else None, agent.upper[0]
                 )
+            U = self.mean_speeds(U, r.u, w, labels)
             _, Jm = self.rollout_costs(state, U.transpose(1, 2, 0))
             best, d.continued = self.choice(Jm, U, self.U)
             plan, w = U[best], np.where(labels == best, w, 0.0)

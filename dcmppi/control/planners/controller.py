@@ -24,7 +24,7 @@ from dcmppi.control.kernels.perturbations import Draw
 from dcmppi.control.kernels.projection import NO_SUMS, bound, project_columns
 from dcmppi.control.kernels.sums import importance_of
 from dcmppi.control.kernels.threads import parts, run
-from dcmppi.control.objective import Objective
+from dcmppi.control.objective import PACE_PARAMS, Objective, Pace
 from dcmppi.control.planners.diagnostics import Diagnostics
 from dcmppi.control.planners.observations import observed_rows, observed_velocity, state_and_goal
 from dcmppi.control.planners.rollouts import Rollouts, start_states
@@ -57,7 +57,8 @@ class Controller:
       Sigma: sampling variance of each control, in its own units (default: the agent's, e.g.
         0.1 (rad/s)^2 for a turn rate, 1 (m/s)^2 for a velocity); a number for 1 control.
       gamma: weight of the importance term gamma lambda sum_i u_i^T Sigma^-1 eps_i (1: paper;
-        lambda = 1 there with lambda_="auto").
+        lambda = 1 there with lambda_="auto"); a preset may set it. For a velocity-commanded
+        robot the term favours samples slower than the warm start.
       alpha: static collision weight. beta: dynamic collision weight (sampled futures).
       P: futures per moving obstacle. seed: int, None or np.random.Generator.
       perturbation: "constant" (one eps per sample over the horizon, paper Sec. IV-A),
@@ -82,9 +83,11 @@ class Controller:
       filter_window, filter_order: the Savitzky-Golay filter of the plan
         (dcmppi.control.planners.smoothing), its odd window (>= 3; 0: no filter, the default;
         "smooth": 9) and polynomial order (< window; default 2).
+      cost_to_go, path_align, speed_weight: weights >= 0 of the objective's terms for time to
+        the goal (dcmppi.control.objective.Pace; 0: off, the default).
     Attributes: agent, predictor, sampler (sampling.Sampler), plan_filter
-      (smoothing.PlanFilter), objective (the last step's), diagnostics (the last step's), timer
-      (the profile's hook, dcmppi.control.timer).
+      (smoothing.PlanFilter), pace (objective.Pace), objective (the last step's),
+      diagnostics (the last step's), timer (the profile's hook, dcmppi.control.timer).
 
     A subclass implements `_solve(state)` -> (nu,) controls, and may override the seams of a
     step's per-sample work (perturbed_rollouts). sample() runs once per step on the calling
@@ -112,7 +115,7 @@ class Controller:
         lambda_=None,
         ess_target=None,
         Sigma=None,
-        gamma=defaults.GAMMA,
+        gamma=None,
         alpha=defaults.ALPHA,
         beta=defaults.BETA,
         P=defaults.P,
@@ -132,6 +135,7 @@ class Controller:
         self.prediction = prediction or self.default_prediction
         predictor = predictor_for(self.prediction)
         predictor_params = {n: other.pop(n) for n in predictor.own_params if n in other}
+        pace = {n: other.pop(n, None) for n in PACE_PARAMS}
         self.agent = make_agent(agent, **other)
         self.robot_radius = positive("robot_radius", robot_radius, allow_zero=True)
         self.dt = positive("dt", dt)
@@ -140,7 +144,7 @@ class Controller:
         self.lambda_ = temperature_param(self.option("lambda_", lambda_, defaults.LAMBDA))
         self.ess_target = share("ess_target", self.option("ess_target", ess_target, ESS_TARGET))
         self.Sigma = self.agent.variances(Sigma)
-        self.gamma = positive("gamma", gamma, allow_zero=True)
+        self.gamma = positive("gamma", self.option("gamma", gamma, defaults.GAMMA), allow_zero=True)
         self.alpha = positive("alpha", alpha, allow_zero=True)
         self.beta = positive("beta", beta, allow_zero=True)
         self.P = positive("P", P, integer=True)
@@ -152,7 +156,7 @@ class Controller:
         self.obstacle_margin = positive("obstacle_margin", obstacle_margin, allow_zero=True)
         self.threads = positive("threads", threads, integer=True)
         self.seed = seed_param(seed)
-        self._components(predictor, predictor_params, filter_window, filter_order)
+        self._components(predictor, predictor_params, filter_window, filter_order, pace)
         # gamma lambda Sigma^-1 of the importance term, per control (lambda = 1 with "auto")
         lam = 1.0 if self.lambda_ == AUTO else self.lambda_
         self._importance_weight = (self.gamma * lam) / self.Sigma
@@ -161,9 +165,10 @@ class Controller:
         self._grid = self.objective = self.rng = None
         self.reset(seed)
 
-    def _components(self, predictor, predictor_params, filter_window, filter_order):
+    def _components(self, predictor, predictor_params, filter_window, filter_order, pace):
         """The step's components from the checked parameters: the sampler, the plan's filter
-        (of the given or the preset's window and order) and the predictor (of the class
+        (of the given or the preset's window and order), the objective's Pace (of the given
+        or the preset's weights `pace`, {name: value or None}) and the predictor (of the class
         `predictor`, with its own parameters)."""
         self.sampler = Sampler(
             self.agent, self.Sigma, self.N, self.K, self.perturbation, self.correlation,
@@ -175,6 +180,11 @@ class Controller:
             self.option("filter_order", filter_order, 2),
         )
         self.filter_window, self.filter_order = self.plan_filter.window, self.plan_filter.order
+        weights = {n: self.option(n, v, 0.0) for n, v in pace.items()}
+        self.pace = Pace.of(self.agent.max_speed, self.dt, **weights)
+        self.cost_to_go, self.path_align, self.speed_weight = (
+            getattr(self.pace, n) for n in PACE_PARAMS
+        )
         self.predictor = predictor(
             N=self.N, dt=self.dt, robot_radius=self.robot_radius,
             max_speed=self.agent.max_speed, alpha=self.alpha, beta=self.beta, P=self.P,
@@ -185,6 +195,7 @@ class Controller:
         "agent", "robot_radius", "dt", "K", "N", "lambda_", "ess_target", "Sigma", "gamma",
         "alpha", "beta", "P", "seed", "perturbation", "correlation", "resolution",
         "obstacle_margin", "threads", "prediction", "preset", "filter_window", "filter_order",
+        *PACE_PARAMS,
     )  # fmt: skip
 
     def option(self, name, value, default):
@@ -279,7 +290,8 @@ class Controller:
             prediction = self.predictor.predict(
                 state, moving, obstacle_model, self.rng, **self._inputs(state, velocity, futures)
             )
-            self.objective = Objective(goal, self._grid, self.alpha, prediction)
+            pace = self.pace if self.pace.on else None
+            self.objective = Objective(goal, self._grid, self.alpha, prediction, pace, state[:2])
         self.diagnostics.prediction = prediction
         u = self._solve(state)
         self.diagnostics.action = u

@@ -216,6 +216,8 @@ class TubeMPPI(MPPI):
         lam = self.temperature(S)  # the chosen solve's (S does not depend on it)
         with timer("update"):
             plan, w = mppi_update(self.U, eps, S, lam)
+        if self.speed_mean != "vector":  # the samples' controls: U0 + their projected eps
+            plan = self.mean_speeds(plan, self.U[:, :, None] + eps, w)
         plan = self.smoothed(plan)  # when it has a filter
         self.record(eps, states, J, S)
         d = self.diagnostics

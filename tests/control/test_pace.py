@@ -1,0 +1,111 @@
+"""The options for time to the goal: the objective's Pace terms (cost_to_go, path_align,
+speed_weight) and the update's speed_mean; off by default."""
+
+import numpy as np
+import pytest
+
+import dcmppi
+from dcmppi.control.objective import Pace
+from dcmppi.control.planners.mppi import polar_means
+
+GOAL = np.array([30.0, 0.0])
+SMOOTH = {"agent": "holonomic", "preset": "smooth", "perturbation": "correlated"}
+
+
+def drive(steps=30, controller="mppi", seed=3, **params):
+    """The positions (steps + 1, 2) of `steps` steps towards an open goal 30 m ahead."""
+    ctrl = dcmppi.make_controller(controller, K=200, N=30, seed=seed, **SMOOTH, **params)
+    state, path = np.zeros(3), [np.zeros(2)]
+    for _ in range(steps):
+        state = ctrl.agent.step(state, ctrl.act(state, GOAL), ctrl.dt)
+        path.append(state[:2].copy())
+    return np.array(path)
+
+
+def test_terms_by_hand():
+    # two rollouts of 3 states from (0, 0) to a goal at (10, 0), dt 0.5, v_max 2
+    x = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])
+    y = np.array([[0.0, 0.0], [0.0, 0.5], [0.0, 1.0]])
+    start, goal = np.zeros(2), np.array([10.0, 0.0])
+    pace = Pace.of(2.0, 0.5, cost_to_go=1.0)
+    np.testing.assert_allclose(pace(x, y, start, goal), [8.0, np.hypot(10.0, 1.0)])
+    pace = Pace.of(2.0, 0.5, path_align=2.0)
+    np.testing.assert_allclose(pace(x, y, start, goal), [0.0, 2.0 * 1.5])
+    pace = Pace.of(2.0, 0.5, speed_weight=1.0)  # speeds 2, 2 and 1, 1
+    np.testing.assert_allclose(pace(x, y, start, goal, cols=(1, 2)), [2.0])
+    np.testing.assert_allclose(pace(x, y, start, goal), [0.0, 2.0])
+    assert not Pace.of(2.0, 0.5).on and Pace.of(2.0, 0.5, speed_weight=0.1).on
+
+
+def test_polar_means_reach_the_top_speed():
+    # samples at the top speed 45 degrees either side of +x, equal weights: the vector mean's
+    # speed is cos 45 degrees of it, the polar mean's the top speed, along +x
+    u = np.zeros((4, 3, 2))
+    u[:, 0, :], u[:, 1, 0], u[:, 1, 1] = np.sqrt(0.5), np.sqrt(0.5), -np.sqrt(0.5)
+    w = np.array([0.5, 0.5])
+    vector = u @ w
+    polar = polar_means(vector, u, w, (0, 1))
+    np.testing.assert_allclose(polar, np.tile([1.0, 0.0, 0.0], (4, 1)), atol=1e-12)
+    # per cluster: each of 2 clusters holds one sample, whose speed it keeps
+    U = np.stack([u[:, :, 0], 0.5 * u[:, :, 1]])
+    out = polar_means(U, u, np.ones(2), (0, 1), labels=np.array([0, 1]))
+    np.testing.assert_allclose(np.hypot(out[..., 0], out[..., 1]), 1.0)
+    np.testing.assert_allclose(out[1], u[:, :, 1])
+
+
+@pytest.mark.parametrize("controller", ["mppi", "dc", "tube"])
+def test_off_is_the_default(controller):
+    off = {"cost_to_go": 0.0, "path_align": 0, "speed_weight": 0.0, "speed_mean": "vector"}
+    default = drive(10, controller)
+    np.testing.assert_array_equal(drive(10, controller, **off), default)
+    ctrl = dcmppi.make_controller(controller, **SMOOTH)
+    assert ctrl.pace == Pace.of(ctrl.agent.max_speed, ctrl.dt) and ctrl.speed_mean == "vector"
+    assert {"cost_to_go", "path_align", "speed_weight", "speed_mean"} <= set(ctrl.params)
+
+
+def speed(path):
+    """Mean speed [m/s] of a path at dt = 0.1 s."""
+    return float(np.mean(np.hypot(*np.diff(path, axis=0).T)) / 0.1)
+
+
+@pytest.mark.parametrize("controller", ["mppi", "dc"])
+@pytest.mark.parametrize(
+    "option", [{"speed_mean": "polar"}, {"speed_weight": 5.0}, {"cost_to_go": 50.0}]
+)
+def test_speed_options_raise_the_speed_to_an_open_goal(controller, option):
+    base = speed(drive(controller=controller))
+    faster = speed(drive(controller=controller, **option))
+    assert base < faster <= 1.5 + 1e-9
+
+
+@pytest.mark.parametrize("controller", ["mppi", "dc"])
+def test_path_align_keeps_to_the_straight_line(controller):
+    base, aligned = drive(controller=controller), drive(controller=controller, path_align=5.0)
+    assert np.abs(aligned[:, 1]).mean() < np.abs(base[:, 1]).mean()
+
+
+@pytest.mark.parametrize(
+    ("params", "message"),
+    [
+        ({"path_align": -1.0}, "path_align"),
+        ({"speed_mean": "median"}, "speed_mean must be one of"),
+        ({"speed_mean": "polar", "agent": "dubins"}, "needs an agent with a norm-bounded"),
+    ],
+)
+def test_bad_options_are_named(params, message):
+    with pytest.raises(ValueError, match=message):
+        dcmppi.make_controller("mppi", **params)
+
+
+def test_a_preset_sets_the_options_and_gamma(monkeypatch):
+    fast = {"speed_mean": "polar", "gamma": 0.1, "path_align": 1.0}
+    monkeypatch.setitem(dcmppi.control.defaults.PRESETS, "fast", fast)
+    ctrl = dcmppi.make_controller("dc", agent="holonomic", preset="fast")
+    assert (ctrl.speed_mean, ctrl.gamma, ctrl.pace.path_align) == ("polar", 0.1, 1.0)
+    given = dcmppi.make_controller("dc", agent="holonomic", preset="fast", gamma=1.0)
+    assert given.gamma == 1.0
+
+
+def test_the_importance_term_drags_a_velocity_robot():
+    # gamma lambda U0^T Sigma^-1 e is least for perturbations against the warm start: slower
+    assert speed(drive(gamma=0.1)) > speed(drive()) + 0.1

@@ -10,7 +10,10 @@ agent's (the robot's or an earlier human's) position or goal. A human within its
 goal respawns: a fresh draw by the same rule against the others' positions and goals now and
 the robot's start and goal (theirs: the robot's position now; its start keeps the humans' paths
 independent of the controller, as prediction "given" needs), keeping its velocity (theirs
-restarts at rest). They walk by ORCA with SAFETY_SPACE added to every disc, at most v_pref,
+restarts at rest; with a holonomic robot their end_goal_changing respawns whatever
+end_goal_change_chance). Goals changed before arrival (their random_goal_changing, p = 0.5
+every 5 s in config.py) are not modelled: the configs of the released logs turn them off. They
+walk by ORCA with SAFETY_SPACE added to every disc, at most v_pref,
 slowing within 1 m of the goal (walkers). The robot: start and goal uniform in
 [-ARENA_SIZE, ARENA_SIZE]^2, redrawn until ROBOT_SPACING apart, holonomic, 1 m/s, radius 0.3 m,
 unseen by the humans (robot_visible False), done within 0.3 m; TIME_LIMIT (theirs ends at 49 s).

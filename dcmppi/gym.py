@@ -58,6 +58,7 @@ IDS = {
     "dcmppi/Corridor-v0": "corridor",
     "dcmppi/Square-v0": "square",
     "dcmppi/CrowdNav-v0": "crowdnav",
+    "dcmppi/CrowdNavPlus-v0": "crowdnav_plus",
     "dcmppi/Blocked-v0": "blocked",
     "dcmppi/Crossing-v0": "crossing",
     "dcmppi/Layout-v0": "layout",

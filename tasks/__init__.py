@@ -8,9 +8,10 @@ the robot's `agent` ("dubins", "unicycle", "holonomic") with its parameters (dub
 others: v_max, omega_max) and `robot_radius`, the control-noise variances `Sigma`, the
 process-noise stds `process_velocity_std` and `process_yaw_rate_std`, `time_limit` [s],
 `obstacle_measurement_std` [m] (noisy moving-obstacle positions, headings and velocities nan),
-plus its own kwargs; tasks with pedestrians (`crowd`, `corridor`, `square`, `crowdnav`) take
-`behavior` (one of pedestrians.walkers.BEHAVIORS) and `robot_visible`; `replay` puts the robot in
-a recorded crowd (`scene`, `path` or $DCMPPI_CROWDS, `episode`, `reactive`).
+plus its own kwargs; tasks with pedestrians (`crowd`, `corridor`, `square`, `crowdnav`,
+`crowdnav_plus`) take `behavior` (one of pedestrians.walkers.BEHAVIORS) and `robot_visible`;
+`replay` puts the robot in a recorded crowd (`scene`, `path` or $DCMPPI_CROWDS, `episode`,
+`reactive`).
 
     __init__.py    the suite: `load`, TASKS, the tagged registry
     _gl.py         the OpenGL backend, chosen before MuJoCo loads
@@ -20,7 +21,7 @@ a recorded crowd (`scene`, `path` or $DCMPPI_CROWDS, `episode`, `reactive`).
     worlds/        the `World` contract, sampling, the paper's forest and crowd, the Dubins
                    arcs; the tasks forest, blocked, crossing, layout, and BARN's score
     pedestrians/   the walkers' behaviours, the corridor's and square's worlds; the tasks
-                   corridor, square, crowd and crowdnav on one base
+                   corridor, square, crowd, crowdnav and crowdnav_plus on one base
     replay/        the ETH/UCY recordings, their scenes and episodes, the recorded people's
                    motion; the task replay
 
@@ -46,6 +47,7 @@ from .navigation import NOISE_PROFILES, Navigation, make_environment  # noqa: E4
 from .pedestrians.corridor import Corridor  # noqa: E402
 from .pedestrians.crowd import Crowd  # noqa: E402
 from .pedestrians.crowdnav import CrowdNav  # noqa: E402
+from .pedestrians.crowdnav_plus import CrowdNavPlus  # noqa: E402
 from .pedestrians.square import Square  # noqa: E402
 from .physics import Physics  # noqa: E402
 from .replay.task import Replay  # noqa: E402
@@ -107,6 +109,15 @@ _register(
     "CrowdNav's test scene: 5 ORCA humans crossing a 4 m circle to its antipodes, blind to a "
     "holonomic robot driving (0, -4) -> (0, 4) (scenario, n_humans, behavior, robot_visible, "
     "randomize_attributes, obstacles).",
+    "dynamic",
+    "pedestrians",
+)
+_register(
+    "crowdnav_plus",
+    CrowdNavPlus,
+    "CrowdNav++'s test scene: 20 ORCA humans crossing a 6*sqrt(2) m circle and respawning, blind "
+    "to a holonomic robot between random points of [-6, 6]^2 at least 8 m apart (n_humans, "
+    "behavior, robot_visible, randomize_attributes, case).",
     "dynamic",
     "pedestrians",
 )
@@ -217,6 +228,7 @@ __all__ = [
     "Forest",
     "Crowd",
     "CrowdNav",
+    "CrowdNavPlus",
     "Corridor",
     "Square",
     "Blocked",

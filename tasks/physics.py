@@ -349,6 +349,8 @@ class Physics(dm_mujoco.Physics):
                 random,
                 self.control_period,
                 world.stop_at_goal,
+                world.slow_at_goal,
+                world.safety_space,
             )
             return pedestrians, walkers.MAX_SPEED_FACTOR * world.moving_pref_speed.max()
         if len(moving):

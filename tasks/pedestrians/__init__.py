@@ -8,6 +8,7 @@
     square.py   the task `square` (C-Uniform's scene)
     crowd.py    the task `crowd`: the paper's Dubins cylinders, or walkers
     crowdnav.py the task `crowdnav` (CrowdNav's circle and square crossings) and its world
+    crowdnav_plus.py  the task `crowdnav_plus` (CrowdNav++'s scene) and its world
 
 The physics (tasks.physics) moves the walkers; the worlds build on tasks.worlds.
 """

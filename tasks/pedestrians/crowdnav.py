@@ -96,6 +96,10 @@ class CrowdNav(PedestrianNavigation):
             **kwargs,
         )
         self.num_static = max(1, len(self.obstacles))
+        self._check_robot()
+
+    def _check_robot(self):
+        """A ValueError where the robot's start or goal touches an obstacle or leaves the map."""
         _check_obstacles(self.obstacles, self._robot_points(), self.robot_radius, self.behavior)
         if self.circle_radius + self.robot_radius >= HALF_WIDTH:
             raise ValueError(
@@ -236,10 +240,10 @@ def _square_human(random, width, v_pref, radius, agents, obstacles):
     return tuple(chosen)
 
 
-def _apart(points, radius) -> bool:
+def _apart(points, radius, spacing=DISCOMFORT_DISTANCE) -> bool:
     """Whether every (point, other, other's radius) of `points` lies at least radius + other's
-    radius + DISCOMFORT_DISTANCE apart (CrowdNav's rule, centre to centre)."""
-    return all(math.hypot(*(p - q)) >= radius + r + DISCOMFORT_DISTANCE for p, q, r in points)
+    radius + spacing apart (CrowdNav's rule, centre to centre)."""
+    return all(math.hypot(*(p - q)) >= radius + r + spacing for p, q, r in points)
 
 
 def _clear_of(obstacles, radius, *points) -> bool:
@@ -264,12 +268,13 @@ def obstacle_walls(obstacles) -> np.ndarray:
 
 def _check_obstacles(obstacles, points, robot_radius, behavior):
     """A ValueError naming the first obstacle (K, 3) with radius <= 0 or touching the robot at
-    its start or goal (points (2, 2)), or obstacles for a behaviour blind to walls."""
+    its start or goal (points (2, 2), or (0, 2): drawn later), or obstacles for a behaviour
+    blind to walls."""
     for k, (x, y, r) in enumerate(obstacles):
         if r <= 0:
             raise ValueError(f"obstacle {k} has radius {r:g}: give rows x, y, radius > 0")
         gap = clearance(points, obstacles[k : k + 1], robot_radius)[:, 0]
-        for name, point, g in zip(("start", "goal"), points, gap, strict=True):
+        for name, point, g in zip(("start", "goal")[: len(points)], points, gap, strict=True):
             if g <= 0:
                 raise ValueError(
                     f"obstacle {k} at ({x:g}, {y:g}) of radius {r:g} m touches the robot at its "

@@ -30,7 +30,7 @@ import numpy as np
 from dcmppi.control.kernels import social
 from dcmppi.control.kernels.social import MAX_SPEED_FACTOR
 from dcmppi.control.registry import Registry
-from dcmppi.control.validation import array
+from dcmppi.control.validation import array, positive
 
 from ..worlds.base import BEHAVIOR_CONSTANT
 
@@ -111,6 +111,8 @@ class Pedestrians:
         random,
         dt,
         stop_at_goal=False,
+        slow_at_goal=False,
+        safety_space=0.0,
     ):
         """
         Args:
@@ -127,6 +129,8 @@ class Pedestrians:
           random: np.random.RandomState handed to next_goal.
           dt: control period [s].
           stop_at_goal: keep the goals and stop at them (module docstring); next_goal unused.
+          slow_at_goal: walk as with stop_at_goal but take the next goals.
+          safety_space: [m] >= 0 added to every radius (the robot's too) in the behaviour.
         """
         self._spec = walking(behavior)
         self.behavior = behavior
@@ -144,7 +148,9 @@ class Pedestrians:
         self.z = position[:, 0] + 1j * position[:, 1]
         self.theta = _headings(self.velocity, self.goal - position)
         self._stop_at_goal = bool(stop_at_goal)
-        self._max_speed = (1.0 if stop_at_goal else MAX_SPEED_FACTOR) * self.pref_speed
+        self._slow_at_goal = self._stop_at_goal or bool(slow_at_goal)
+        self._max_speed = (1.0 if self._slow_at_goal else MAX_SPEED_FACTOR) * self.pref_speed
+        self._space = positive("safety_space", safety_space, allow_zero=True)
         self._behaviors = None if self._spec.navground is None else self._navground_behaviors()
 
     def advance(self, n, robot_xy, robot_velocity) -> np.ndarray:
@@ -159,10 +165,11 @@ class Pedestrians:
         start = self._pos
         desired = self._desired()
         if self._behaviors is None:
-            others = (robot_xy[None], [self._robot_radius]) if self._robot_visible else _NOBODY
+            robot = (robot_xy[None], [self._robot_radius + self._space])
+            others = robot if self._robot_visible else _NOBODY
             end, velocity = social.step(
-                start, self.velocity, desired, self.radius, self._max_speed, self._dt, *others,
-                self._walls,
+                start, self.velocity, desired, self.radius + self._space, self._max_speed,
+                self._dt, *others, self._walls,
             )  # fmt: skip
         else:
             velocity = self._navground_velocities(desired, robot_xy, robot_velocity)
@@ -195,13 +202,13 @@ class Pedestrians:
 
     def _desired(self):
         """Desired velocities (L, 2): towards the goals at the preferred speeds (with
-        stop_at_goal, at most distance / ARRIVAL_TIME)."""
+        stop_at_goal or slow_at_goal, at most distance / ARRIVAL_TIME)."""
         to_goal = self.goal - self._pos
         distance = np.hypot(*to_goal.T)
         scale = np.divide(
             self.pref_speed, distance, out=np.zeros_like(distance), where=distance > 0
         )
-        if self._stop_at_goal:
+        if self._slow_at_goal:
             scale = np.minimum(scale, 1.0 / ARRIVAL_TIME)
         return to_goal * scale[:, None]
 
@@ -220,7 +227,7 @@ class Pedestrians:
         for i in range(len(self._pos)):
             kinematics = core.kinematics.OmnidirectionalKinematics(self._max_speed[i])
             behavior = getattr(core.behaviors, spec.navground)(
-                kinematics=kinematics, radius=self.radius[i]
+                kinematics=kinematics, radius=self.radius[i] + self._space
             )
             if spec.time_horizon is not None:
                 behavior.time_horizon = spec.time_horizon
@@ -240,7 +247,7 @@ class Pedestrians:
         distance = np.hypot(*(pos[:, None] - pos[None]).transpose(2, 0, 1))
         np.fill_diagonal(distance, np.inf)
         if self._robot_visible:
-            robot = [core.Neighbor(robot_xy, self._robot_radius, robot_velocity)]
+            robot = [core.Neighbor(robot_xy, self._robot_radius + self._space, robot_velocity)]
             near_robot = np.hypot(*(pos - robot_xy).T) < NEIGHBOR_RANGE
         stop = core.Target.Stop()
         relaxes = self._spec.relaxes
@@ -252,7 +259,7 @@ class Pedestrians:
                 behavior.actuated_twist = core.Twist2(vel[i])
             behavior.orientation = self.theta[i]
             neighbors = [
-                core.Neighbor(pos[j], self.radius[j], vel[j])
+                core.Neighbor(pos[j], self.radius[j] + self._space, vel[j])
                 for j in np.flatnonzero(distance[i] < NEIGHBOR_RANGE)
             ]
             if self._robot_visible and near_robot[i]:

@@ -53,6 +53,10 @@ class World:
       robot_visible: whether the pedestrians react to the robot.
       stop_at_goal: whether the pedestrians stop at their first goals (CrowdNav's humans,
         walkers.Pedestrians) rather than walk on to next ones.
+      slow_at_goal: whether they walk as stop_at_goal's (at most their preferred speeds, slower
+        near their goals) but take next goals (CrowdNav++'s humans).
+      safety_space: [m] added to every disc in the pedestrians' behaviour, not in the physics
+        (CrowdNav++'s ORCA safety space).
     """
 
     start: np.ndarray
@@ -69,6 +73,8 @@ class World:
     behavior: str = BEHAVIOR_CONSTANT
     robot_visible: bool = False
     stop_at_goal: bool = False
+    slow_at_goal: bool = False
+    safety_space: float = 0.0
 
 
 def map_bounds(map_size=MAP_SIZE) -> np.ndarray:
@@ -109,6 +115,8 @@ def make_world(
     walls=None,
     robot_visible=False,
     stop_at_goal=False,
+    slow_at_goal=False,
+    safety_space=0.0,
 ) -> World:
     """A `World` from loose arrays; static gets one padding row when empty."""
     static = np.zeros((1, 3)) if static is None or len(static) == 0 else static
@@ -136,6 +144,8 @@ def make_world(
         behavior=str(behavior),
         robot_visible=bool(robot_visible),
         stop_at_goal=bool(stop_at_goal),
+        slow_at_goal=bool(slow_at_goal),
+        safety_space=float(safety_space),
     )
 
 

@@ -16,8 +16,8 @@ MINIMAL = 'task = "blocked"\nepisodes = 2\n[[rows]]\ncontroller = "mppi"\n'
 def test_shipped_experiments_hold_the_papers_setup():
     assert experiment_names() == [
         "barn", "blocked", "corridor", "corridor-mismatch", "corridor-visible", "crowd-sf",
-        "crowdnav", "crowdnav-visible", "dynamic", "dynamic-dubins", "dynamic-ekf", "eth-ucy",
-        "eth-ucy-reactive", "square-orca", "static",
+        "crowdnav", "crowdnav-plus", "crowdnav-visible", "dynamic", "dynamic-dubins",
+        "dynamic-ekf", "eth-ucy", "eth-ucy-reactive", "square-orca", "static",
     ]  # fmt: skip
     static = load_experiment("static")
     assert (static.task, static.episodes, static.base_seed) == ("forest", 1000, 2024)
@@ -121,6 +121,20 @@ def test_shipped_experiments_hold_the_papers_setup():
     assert all(reactive.row(r).params == eth_ucy.row(r).params for r in rows if r != "dc-social")
     assert reactive.controller_params == eth_ucy.controller_params
     assert "ORCA 0.43 / 0.57 / 10.86 s" in load_experiment("crowdnav").paper_note
+    plus = load_experiment("crowdnav-plus")
+    assert (plus.task, plus.episodes, plus.env_param) == ("crowdnav_plus", 500, "case")
+    assert plus.task_params == {"behavior": "orca", "robot_visible": False}
+    assert plus.controller_params == dynamic.controller_params
+    # crowdnav's rows but dc-learned: recorded tracks would join a respawned human to the one
+    # it replaces
+    assert plus.labels == tuple(r for r in load_experiment("crowdnav").labels if r != "dc-learned")
+    note = " ".join(plus.paper_note.split())
+    for figures in (
+        "0.92 / 0.07 / 15.42 s / 4.23 %",
+        "0.69 / 0.29 / 14.77 s",
+        "0.34 / 0.64 / 19.95",
+    ):
+        assert figures in note
     mismatch = load_experiment("corridor-mismatch")
     assert mismatch.row("dc-ekf-walk").params["process_std"] == [0.01, 0.01, 0.3, 0.5, 1.0]
     assert mismatch.labels == (
@@ -146,6 +160,7 @@ def test_shipped_experiments_hold_the_papers_setup():
         "crowd-sf",
         "crowdnav",
         "crowdnav-visible",
+        "crowdnav-plus",
     ],  # fmt: skip
 )
 def test_every_shipped_row_builds(name):

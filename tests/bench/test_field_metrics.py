@@ -236,6 +236,8 @@ def _result(outcome, kind=None, ttc=math.inf, pedestrians=True, spl_=None):
         "min_ped_gap": 0.4 if pedestrians else None,
         "personal_space_share": 0.1 if pedestrians else None,
         "discomfort_frequency": 0.05 if pedestrians else None,
+        "intrusion_ratio": 0.04 if pedestrians else None,
+        "social_distance": 0.45 if pedestrians else None,
         "min_ttc": ttc if pedestrians else None,
         "ped_speed_loss": 0.05 if pedestrians else None,
         "min_clearance": 0.3,
@@ -322,7 +324,8 @@ def test_the_metrics_table_shows_rates_intervals_and_dashes():
     assert dc.startswith("| none | dc | 4 | 50.0 [15.0, 85.0] | 25.0 [4.6, 69.9] | 0.0 [0.0, 49.0]")
     assert "| 0.375 [0.000, 0.750] |" in dc and "| 1.50 [" in dc and "| 5.0 [5.0, 5.0] |" in dc
     mppi = next(x for x in text.splitlines() if "| mppi |" in x)
-    assert mppi.endswith("| 2.0 [2.0, 2.0] | - | - | - | - | - |")  # jerk applies, pedestrians not
+    # jerk applies, pedestrians not
+    assert mppi.endswith("| 2.0 [2.0, 2.0] | - | - | - | - | - | - | - |")
     assert not re.search(r"\bnan\b", text)  # no nan cell ("Provenance" holds "nan")
 
 

@@ -32,6 +32,7 @@ TASK_PARAMS = {
     "corridor": {"time_limit": 1.5, "n_pedestrians": 4},
     "square": {"time_limit": 1.5, "n_pedestrians": 3},
     "crowdnav": {"time_limit": 1.5, "n_humans": 3},
+    "crowdnav_plus": {"time_limit": 1.5, "n_humans": 3},
     "blocked": {"time_limit": 1.5},
     "crossing": {"time_limit": 1.5},
     "layout": {"time_limit": 1.5, "path": str(BARN)},

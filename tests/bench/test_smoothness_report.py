@@ -191,7 +191,8 @@ def test_a_schema_6_database_reports_its_path_sides_and_upgrades(tmp_path):
 @pytest.mark.slow
 def test_a_schema_7_database_reports_without_the_time_columns_and_upgrades(tmp_path):
     assert ADDED[8] == ("time_waiting", "time_slow", "detour")
-    assert SCHEMA_VERSION == 9 and ADDED[9] == ("discomfort_frequency",)
+    assert ADDED[9] == ("discomfort_frequency",)
+    assert SCHEMA_VERSION == 10 and ADDED[10] == ("intrusion_ratio", "social_distance")
     exp, path, _ = _old_database(tmp_path, schema=7)
     with sqlite3.connect(path) as c:  # schema 7's filter-guard share, no longer declared
         c.execute("ALTER TABLE episodes ADD COLUMN guard_share REAL")
@@ -218,10 +219,10 @@ def test_a_schema_7_database_reports_without_the_time_columns_and_upgrades(tmp_p
     assert 0 <= rows[2]["time_waiting"] <= rows[2]["steps"] * DT
     assert 0 <= rows[2]["time_slow"] <= rows[2]["steps"] * DT
     with sqlite3.connect(path) as c:
-        assert c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone() == ("9",)
+        assert c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone() == ("10",)
         kept = c.execute("SELECT * FROM episodes ORDER BY env_index").fetchall()
     assert [row[: len(before[0])] for row in kept[:2]] == before  # every old value kept
-    assert kept[0][len(before[0]) :] == (None,) * 4  # the added columns (8 and 9), NULL
+    assert kept[0][len(before[0]) :] == (None,) * 6  # the added columns (8 to 10), NULL
     assert "guard_share" not in rows[0] and kept[2][len(before[0]) - 1] is None  # kept, unread
     text = write_report(path, tmp_path / "out", plots=False)
     diagnostics = next(b for b in text.split("\n\n") if b.startswith("| Noise | Row | ESS"))

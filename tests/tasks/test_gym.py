@@ -28,6 +28,7 @@ SMALL = {  # every id with small settings, and every agent somewhere
     "dcmppi/Corridor-v0": {"n_pedestrians": 4},
     "dcmppi/Square-v0": {"n_pedestrians": 3, "agent": "unicycle"},
     "dcmppi/CrowdNav-v0": {"scenario": "square_crossing", "n_humans": 3},
+    "dcmppi/CrowdNavPlus-v0": {"n_humans": 4},
     "dcmppi/Blocked-v0": {},
     "dcmppi/Crossing-v0": {"agent": "unicycle", "noise": "control"},
     "dcmppi/Layout-v0": {"path": str(DATA / "barn_worlds_0_1.csv"), "world": 0},

@@ -19,6 +19,8 @@ import dataclasses
 from dcmppi.bench.episodes.metrics import (
     DISCOMFORT,
     FREE_SPACE,
+    INTRUSION_HORIZON,
+    INTRUSION_STEP,
     NEAR,
     PERSONAL_SPACE,
     SLOW_SHARE,
@@ -303,6 +305,29 @@ COLUMNS = (
         title="Discomfort",
         digits=1,
         percent=True,
+    ),
+    Column(
+        "intrusion_ratio",
+        "REAL",
+        f"CrowdNav++'s intrusion ratio: the share of the control instants at which the robot's "
+        f"centre lies within a pedestrian's radius + its own of where that pedestrian is "
+        f"{INTRUSION_STEP:g} to {INTRUSION_HORIZON * INTRUSION_STEP:g} s later (every "
+        f"{INTRUSION_STEP:g} s)",
+        since=10,
+        tables=("metrics",),
+        title="Intrusion",
+        digits=1,
+        percent=True,
+    ),
+    Column(
+        "social_distance",
+        "REAL",
+        "CrowdNav++'s social distance: over the instants with an intrusion, the mean of the "
+        "smallest centre distance from the robot to an intruded future position",
+        since=10,
+        unit="m",
+        tables=("metrics",),
+        title="Social distance",
     ),
     Column(
         "min_ttc",

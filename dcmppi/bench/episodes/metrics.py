@@ -97,6 +97,9 @@ def _count_labels(labels):
 
 PERSONAL_SPACE = 0.5  # [m] a pedestrian's surface this close to the robot's is in its space
 DISCOMFORT = 0.2  # [m] CrowdNav's discomfort distance (discomfort_dist), surface to surface
+INTRUSION_STEP = 0.25  # [s] CrowdNav++'s prediction interval (data.pred_timestep)
+INTRUSION_HORIZON = 5  # CrowdNav++'s predicted positions per instant (sim.predict_steps)
+RESPAWN_SPEED = 10.0  # [m/s] an obstacle faster than this between instants respawned
 NEAR = 2.0  # [m] pedestrians this close (surface to surface) count in the speed loss
 WAIT_SPEED = 0.1  # [m/s] a step slower than this (its mean speed) is waiting
 FREE_SPACE = 2.0  # [m] no obstacle's surface this close to the robot's: in free space
@@ -184,6 +187,7 @@ class FieldMetrics:
         self.min_ttc = math.inf
         self.loss_sum = 0.0
         self.loss_count = 0
+        self.crowd: list[np.ndarray] = []  # the moving obstacles' x, y, radius (L, 3) each instant
         self.read(physics)
 
     def read(self, physics) -> None:
@@ -193,15 +197,17 @@ class FieldMetrics:
         PERSONAL_SPACE and whether any is below DISCOMFORT, its smallest
         time_to_collision(rel, u - w, R + robot_radius), and with preferred speeds s the sum
         (np.sum) of 1 - |u| / s (np.hypot) over the gaps below NEAR; and the robot's position
-        and the clearance."""
+        and the clearance; and the moving obstacles' centres and radii."""
         robot_v = physics.robot_velocity()[:2]
         self.velocity.append(robot_v)
         self.position.append(physics.robot_position())
         self.clearance.append(physics.clearance())
         if not self.pedestrians:
             return
+        moving = physics.moving_obstacles()
+        self.crowd.append(moving[:, [0, 1, 3]])
         gap, personal, ttc, loss, near = _instant(
-            physics.moving_obstacles(),
+            moving,
             physics.moving_velocity(),
             physics.robot_pose()[:2],
             robot_v,
@@ -221,10 +227,14 @@ class FieldMetrics:
         """jerk_mean [m/s^3]; with moving obstacles (else None): min_ped_gap [m] (surface to
         surface), personal_space_share (share of the instants with a pedestrian within
         PERSONAL_SPACE), discomfort_frequency (CrowdNav's: the share of the instants with one
-        within DISCOMFORT), min_ttc [s] (inf: never on a collision course); ped_speed_loss: mean
-        over instants and pedestrians within NEAR of 1 - speed / preferred speed (None without
-        preferred speeds or with none near); and `time_use`'s."""
+        within DISCOMFORT), min_ttc [s] (inf: never on a collision course), intrusion_ratio and
+        social_distance [m] (`intrusions`); ped_speed_loss: mean over instants and pedestrians
+        within NEAR of 1 - speed / preferred speed (None without preferred speeds or with none
+        near); and `time_use`'s."""
         crowd = self.pedestrians
+        ratio, social = (None, None)
+        if crowd:
+            ratio, social = intrusions(self.position, self.crowd, self.robot_radius, self.dt)
         return {
             **self.time_use(),
             "jerk_mean": mean_jerk(self.velocity, self.dt),
@@ -232,6 +242,8 @@ class FieldMetrics:
             "personal_space_share": self.personal / self.instants if crowd else None,
             "discomfort_frequency": self.discomfort / self.instants if crowd else None,
             "min_ttc": self.min_ttc if crowd else None,
+            "intrusion_ratio": ratio,
+            "social_distance": social,
             "ped_speed_loss": self.loss_sum / self.loss_count if self.loss_count else None,
         }
 
@@ -254,6 +266,40 @@ class FieldMetrics:
 
 
 _NO_PREF = np.zeros(0)
+
+
+def intrusions(robot, crowd, robot_radius, dt) -> tuple[float | None, float | None]:
+    """CrowdNav++'s intrusions (its crowd_sim_var_num.py calc_reward, rl/evaluation.py) from
+    the robot's centres (K + 1, 2) and the moving obstacles' x, y, radius (K + 1, L, 3) at the
+    control instants dt [s] apart: at each instant k < K (those the robot acts at), it intrudes
+    where its centre lies closer than radius + robot_radius to an obstacle's centre at
+    t_k + j INTRUSION_STEP, j = 1 .. INTRUSION_HORIZON (their true future: here the recorded
+    one, linear between instants, the earlier instant's across a respawn (faster than
+    RESPAWN_SPEED); times after the last instant and rows of radius 0 left out).
+
+    Returns: (the share of the K instants with an intrusion, the mean over those of the smallest
+    intruded centre distance [m], None without any); (None, None) for K = 0."""
+    robot = np.asarray(robot, dtype=np.float64)[:, :2]
+    crowd = np.asarray(crowd, dtype=np.float64)
+    last = len(robot) - 1
+    if last < 1:
+        return None, None
+    nearest = np.full(last, np.inf)
+    for j in range(1, INTRUSION_HORIZON + 1):
+        f = np.arange(last) + j * INTRUSION_STEP / dt
+        i0 = np.floor(f + 1e-9).astype(int)
+        w = np.clip(f - i0, 0.0, 1.0)[:, None, None]
+        kept = (i0 < last) | ((i0 == last) & (w[:, 0, 0] < 1e-9))
+        i0 = np.minimum(i0, last)
+        a, b = crowd[i0], crowd[np.minimum(i0 + 1, last)]
+        jump = np.hypot(*(b[..., :2] - a[..., :2]).T).T > RESPAWN_SPEED * dt
+        at = np.where(jump[..., None], a[..., :2], (1.0 - w) * a[..., :2] + w * b[..., :2])
+        d = np.hypot(*(at - robot[:last, None]).T).T
+        hit = kept[:, None] & (a[..., 2] > 0) & (b[..., 2] > 0) & (d < a[..., 2] + robot_radius)
+        nearest = np.minimum(nearest, np.where(hit, d, np.inf).min(axis=1, initial=np.inf))
+    intruded = np.isfinite(nearest)
+    social = float(nearest[intruded].mean()) if intruded.any() else None
+    return float(intruded.mean()), social
 
 
 @numba.njit(cache=True, error_model="numpy")

@@ -29,6 +29,7 @@ from dcmppi.control.planners.diagnostics import Diagnostics
 from dcmppi.control.planners.observations import observed_rows, observed_velocity, state_and_goal
 from dcmppi.control.planners.rollouts import Rollouts, start_states
 from dcmppi.control.planners.sampling import Sampler, correlation_param, perturbation_param
+from dcmppi.control.planners.shield import Shield, shield_param, shielded
 from dcmppi.control.planners.smoothing import PlanFilter
 from dcmppi.control.planners.temperature import (
     AUTO,
@@ -82,8 +83,11 @@ class Controller:
       filter_window, filter_order: the Savitzky-Golay filter of the plan
         (dcmppi.control.planners.smoothing), its odd window (>= 3; 0: no filter, the default;
         "smooth": 9) and polynomial order (< window; default 2).
+      shield: the safety shield of the applied control (dcmppi.control.planners.shield): None or
+        false (off, the default), true, or a dict of its time_horizon and margin.
     Attributes: agent, predictor, sampler (sampling.Sampler), plan_filter
-      (smoothing.PlanFilter), objective (the last step's), diagnostics (the last step's), timer
+      (smoothing.PlanFilter), safety (shield.Shield or None), objective (the last step's),
+      diagnostics (the last step's), timer
       (the profile's hook, dcmppi.control.timer).
 
     A subclass implements `_solve(state)` -> (nu,) controls, and may override the seams of a
@@ -126,6 +130,7 @@ class Controller:
         preset=None,
         filter_window=None,
         filter_order=None,
+        shield=None,
         **other,
     ):
         self.preset = choice("preset", "paper" if preset is None else preset, tuple(PRESETS))
@@ -157,6 +162,12 @@ class Controller:
         lam = 1.0 if self.lambda_ == AUTO else self.lambda_
         self._importance_weight = (self.gamma * lam) / self.Sigma
         self._lambda_max = self.alpha / COLLISION_NATS if self.alpha else np.inf
+        self.shield = shield_param(shield)
+        self.safety = (
+            None
+            if self.shield is None
+            else Shield(self.agent, self.robot_radius, self.dt, **self.shield)
+        )
         self.timer = NO_TIMER
         self._grid = self.objective = self.rng = None
         self.reset(seed)
@@ -185,6 +196,7 @@ class Controller:
         "agent", "robot_radius", "dt", "K", "N", "lambda_", "ess_target", "Sigma", "gamma",
         "alpha", "beta", "P", "seed", "perturbation", "correlation", "resolution",
         "obstacle_margin", "threads", "prediction", "preset", "filter_window", "filter_order",
+        "shield",
     )  # fmt: skip
 
     def option(self, name, value, default):
@@ -282,6 +294,10 @@ class Controller:
             self.objective = Objective(goal, self._grid, self.alpha, prediction)
         self.diagnostics.prediction = prediction
         u = self._solve(state)
+        if self.safety is not None:
+            with self.timer("shield"):
+                args = (static, moving, velocity, obstacle_model, bounds)
+                u = shielded(self.safety, self.diagnostics, state, u, *args)
         self.diagnostics.action = u
         self.plan_filter.record(u)
         return u

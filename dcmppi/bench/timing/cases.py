@@ -126,7 +126,14 @@ SMOOTH_CASES = tuple(
         ("mppi", "mppi", "crowd-sf", WALK),
     )
 )
-CASES = BASE_CASES + SMOOTH_CASES + LEARNED_CASES
+# the safety shield after a planner and a classical planner among the corridor's 12 walkers:
+# its linear programs may cost at most 15 % of dc-cv's step
+SHIELD = {"shield": True}
+SHIELD_CASES = (
+    Case("dc-cv+shield", "dc", "corridor", {**CV, **SHIELD}, "dc-cv", target_ratio=1.15),
+    Case("dc-cv+smooth+shield", "dc", "corridor", {**CV, **SMOOTH, **SHIELD}, "dc-cv+smooth"),
+)
+CASES = BASE_CASES + SMOOTH_CASES + SHIELD_CASES + LEARNED_CASES
 
 # `--fingerprint`: every row of the table and the variants that take other code paths
 # (the learned rows aside: their plans depend on a trained model's bytes)
@@ -147,7 +154,13 @@ VARIANTS = (
 # others so that a machine's older fingerprints stay comparable
 CORRELATED = {"agent": "holonomic", "perturbation": "correlated"}
 PRESET_VARIANTS = SMOOTH_CASES + (Case("clustered correlated", "clustered", "forest", CORRELATED),)
-FINGERPRINT_CASES = BASE_CASES + VARIANTS + PRESET_VARIANTS
+# the shield's paths: after a sampling planner for each agent kind (it turns the unicycle and
+# the car), after a classical one
+SHIELD_VARIANTS = SHIELD_CASES + (
+    Case("dc unicycle+shield", "dc", "crowd", {"agent": "unicycle", **SHIELD}),
+    Case("dc+shield", "dc", "crowd", SHIELD),
+)
+FINGERPRINT_CASES = BASE_CASES + VARIANTS + PRESET_VARIANTS + SHIELD_VARIANTS
 
 # `--profile`
 PROFILE_CASES = (

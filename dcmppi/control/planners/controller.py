@@ -29,7 +29,7 @@ from dcmppi.control.planners.diagnostics import Diagnostics
 from dcmppi.control.planners.observations import observed_rows, observed_velocity, state_and_goal
 from dcmppi.control.planners.rollouts import Rollouts, start_states
 from dcmppi.control.planners.sampling import Sampler, correlation_param, perturbation_param
-from dcmppi.control.planners.shield import Shield, shield_param, shielded
+from dcmppi.control.planners.shield import make_shield, shielded
 from dcmppi.control.planners.smoothing import PlanFilter
 from dcmppi.control.planners.temperature import (
     AUTO,
@@ -157,25 +157,20 @@ class Controller:
         self.obstacle_margin = positive("obstacle_margin", obstacle_margin, allow_zero=True)
         self.threads = positive("threads", threads, integer=True)
         self.seed = seed_param(seed)
-        self._components(predictor, predictor_params, filter_window, filter_order)
+        self._components(predictor, predictor_params, filter_window, filter_order, shield)
         # gamma lambda Sigma^-1 of the importance term, per control (lambda = 1 with "auto")
         lam = 1.0 if self.lambda_ == AUTO else self.lambda_
         self._importance_weight = (self.gamma * lam) / self.Sigma
         self._lambda_max = self.alpha / COLLISION_NATS if self.alpha else np.inf
-        self.shield = shield_param(shield)
-        self.safety = (
-            None
-            if self.shield is None
-            else Shield(self.agent, self.robot_radius, self.dt, **self.shield)
-        )
         self.timer = NO_TIMER
         self._grid = self.objective = self.rng = None
         self.reset(seed)
 
-    def _components(self, predictor, predictor_params, filter_window, filter_order):
+    def _components(self, predictor, predictor_params, filter_window, filter_order, shield):
         """The step's components from the checked parameters: the sampler, the plan's filter
-        (of the given or the preset's window and order) and the predictor (of the class
-        `predictor`, with its own parameters)."""
+        (of the given or the preset's window and order), the predictor (of the class
+        `predictor`, with its own parameters) and the safety shield (of the option `shield`)."""
+        self.shield, self.safety = make_shield(shield, self.agent, self.robot_radius, self.dt)
         self.sampler = Sampler(
             self.agent, self.Sigma, self.N, self.K, self.perturbation, self.correlation,
             self.threads,

@@ -56,6 +56,13 @@ def shield_param(value):
     }
 
 
+def make_shield(value, agent, robot_radius, dt):
+    """The `shield` option `value` checked (shield_param) and its filter: (None, None) when
+    off, else (the dict, a Shield of the robot)."""
+    params = shield_param(value)
+    return params, None if params is None else Shield(agent, robot_radius, dt, **params)
+
+
 class Shield:
     """The filter of one robot (see the module docstring).
 

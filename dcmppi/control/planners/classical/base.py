@@ -23,7 +23,7 @@ from dcmppi.control.kernels.costs import valid_cylinders
 from dcmppi.control.kernels.projection import bound
 from dcmppi.control.planners.diagnostics import Diagnostics
 from dcmppi.control.planners.observations import observed_velocity, state_and_goal
-from dcmppi.control.planners.shield import Shield, shield_param, shielded
+from dcmppi.control.planners.shield import make_shield, shielded
 from dcmppi.control.planners.velocities import moving_obstacle_velocity
 from dcmppi.control.validation import floats, positive, seed_param
 
@@ -74,12 +74,7 @@ class Classical:
         self.robot_radius = positive("robot_radius", robot_radius, allow_zero=True)
         self.dt = positive("dt", dt)
         self.seed = seed_param(seed)
-        self.shield = shield_param(shield)
-        self.safety = (
-            None
-            if self.shield is None
-            else Shield(self.agent, self.robot_radius, self.dt, **self.shield)
-        )
+        self.shield, self.safety = make_shield(shield, self.agent, self.robot_radius, self.dt)
         self.reset()
 
     @classmethod

@@ -103,15 +103,16 @@ class Shield:
     def _discs(self, state, v, discs, velocity):
         """ORCA's lines (point, direction) of discs (n, 3) x, y, radius moving at velocity
         (n, 2) (None: at rest) that a velocity within top speed could reach in time_horizon."""
-        lines = []
-        tau, dt, speed = self.tau, self.dt, self.agent.max_speed
-        for i, (x, y, r) in enumerate(discs.tolist()):
-            vx, vy = (0.0, 0.0) if velocity is None else velocity[i].tolist()
-            dx, dy, big = x - state[0], y - state[1], r + self.radius
-            if math.hypot(dx, dy) - big > (speed + math.hypot(vx, vy)) * tau:
-                continue
-            lines.append(_orca_line(dx, dy, v[0] - vx, v[1] - vy, big, tau, dt, v))
-        return lines
+        velocity = np.zeros((len(discs), 2)) if velocity is None else velocity
+        offset = discs[:, :2] - state[:2]
+        big = discs[:, 2] + self.radius
+        reach = (self.agent.max_speed + np.hypot(*velocity.T)) * self.tau
+        near = np.hypot(*offset.T) - big <= reach
+        rows = zip(offset[near].tolist(), big[near].tolist(), velocity[near].tolist(), strict=True)
+        return [
+            _orca_line(dx, dy, v[0] - vx, v[1] - vy, b, self.tau, self.dt, v)
+            for (dx, dy), b, (vx, vy) in rows
+        ]
 
     def _walls(self, state, v, bounds):
         """The map's edges as lines: the speed towards each at most the centre's gap less the

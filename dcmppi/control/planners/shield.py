@@ -94,11 +94,13 @@ class Shield:
         if self.agent.holonomic:
             return bound(self.agent, self.agent.command(safe, omega)), True
         out = bound(self.agent, track(self.agent, heading, safe))
-        if not self.agent.steers_only:  # its speed within the half-planes along the chord
-            half = heading + 0.5 * self.dt * float(out[-1])
-            chord = (math.cos(half), math.sin(half))
-            out[0] = _along(lines, chord, float(out[0]), float(self.agent.upper[0]))
-        return out, True
+        if self.agent.steers_only:
+            return out, True
+        forward, turn = self.agent.world_velocity(heading, out)  # its speed along the chord:
+        half = heading + 0.5 * self.dt * turn
+        chord = (math.cos(half), math.sin(half))
+        speed = _along(lines, chord, math.hypot(*forward), self.agent.max_speed)
+        return bound(self.agent, self.agent.command((speed, 0.0), turn)), True
 
     def _discs(self, state, v, discs, velocity):
         """ORCA's lines (point, direction) of discs (n, 3) x, y, radius moving at velocity

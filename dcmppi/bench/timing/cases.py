@@ -154,11 +154,11 @@ VARIANTS = (
 # others so that a machine's older fingerprints stay comparable
 CORRELATED = {"agent": "holonomic", "perturbation": "correlated"}
 PRESET_VARIANTS = SMOOTH_CASES + (Case("clustered correlated", "clustered", "forest", CORRELATED),)
-# the shield's paths: after a sampling planner for each agent kind (it turns the unicycle and
-# the car), after a classical one
-SHIELD_VARIANTS = SHIELD_CASES + (
-    Case("dc unicycle+shield", "dc", "crowd", {"agent": "unicycle", **SHIELD}),
-    Case("dc+shield", "dc", "crowd", SHIELD),
+# the shield's paths for the other agents (it turns the unicycle and slows it, turns the car)
+# where it changes their commands
+SHIELD_VARIANTS = SHIELD_CASES + tuple(
+    Case(f"dc-cv {agent}+shield", "dc", "corridor", {"agent": agent, "prediction": "cv", **SHIELD})
+    for agent in ("unicycle", "dubins")
 )
 FINGERPRINT_CASES = BASE_CASES + VARIANTS + PRESET_VARIANTS + SHIELD_VARIANTS
 

@@ -100,14 +100,17 @@ def test_every_planner_takes_the_shield(controller, agent):
     ctrl = make_controller(controller, shield={"time_horizon": 1.0}, **params)
     ctrl.act(*args, moving_velocity=velocity)
     assert ctrl.diagnostics.shielded is True
-    assert ctrl.params["shield"] == {"time_horizon": 1.0, "margin": 0.05}
+    assert ctrl.params["shield"] == {"time_horizon": 1.0, "margin": 0.15}
     off = make_controller(controller, **params)
     off.act(*args, moving_velocity=velocity)
     assert off.safety is None and off.diagnostics.shielded is None and off.shield is None
 
 
 def test_a_bad_shield_is_one_clear_error():
-    assert shield_param(False) is None and shield_param(True)["time_horizon"] == 1.0
+    assert shield_param(False) is None and shield_param(True) == {
+        "time_horizon": 1.5,
+        "margin": 0.15,
+    }
     with pytest.raises(ValueError, match="shield must be true, false or a table of time_horizon"):
         shield_param({"tau": 1.0})
     with pytest.raises(ValueError, match="shield time_horizon must be > 0"):

@@ -8,8 +8,9 @@ Every controller accepts the shared parameters (defaults from dcmppi.control.def
 explained in docs/design.md): agent and its parameters (dubins: v, r_min; unicycle and holonomic:
 v_max, omega_max), robot_radius, dt, K, N, lambda_, ess_target, Sigma, gamma, alpha, beta, P, seed,
 perturbation, resolution, obstacle_margin, threads, prediction and its predictor's parameters,
-shield (the applied command's safety filter, dcmppi.control.planners.shield), plus its own. Each step, the predictor turns the moving obstacles into tracks, the step's Objective
-scores rollouts, and the subclass's `_solve` plans with them.
+shield (the applied command's safety filter, dcmppi.control.planners.shield), plus its own. Each
+step, the predictor turns the moving obstacles into tracks, the step's Objective scores rollouts,
+and the subclass's `_solve` plans with them.
 """
 
 import functools

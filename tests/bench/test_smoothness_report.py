@@ -217,10 +217,12 @@ def test_a_schema_7_database_reports_without_the_time_columns_and_upgrades(tmp_p
     assert 0 <= rows[2]["time_waiting"] <= rows[2]["steps"] * DT
     assert 0 <= rows[2]["time_slow"] <= rows[2]["steps"] * DT
     with sqlite3.connect(path) as c:
-        assert c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone() == ("9",)
+        schema = c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone()
+        assert schema == (str(SCHEMA_VERSION),)
         kept = c.execute("SELECT * FROM episodes ORDER BY env_index").fetchall()
     assert [row[: len(before[0])] for row in kept[:2]] == before  # every old value kept
-    assert kept[0][len(before[0]) :] == (None,) * 4  # the added columns (8 and 9), NULL
+    added = sum(len(ADDED[v]) for v in range(8, SCHEMA_VERSION + 1))
+    assert kept[0][len(before[0]) :] == (None,) * added  # the columns added since 7, NULL
     assert "guard_share" not in rows[0] and kept[2][len(before[0]) - 1] is None  # kept, unread
     text = write_report(path, tmp_path / "out", plots=False)
     diagnostics = next(b for b in text.split("\n\n") if b.startswith("| Noise | Row | ESS"))

@@ -271,6 +271,27 @@ def test_episode_diagnostics_match_the_controllers_records(controller):
         assert result["tube_deviation_p95"] is None
 
 
+@pytest.mark.parametrize("shield", [True, None])
+def test_episode_records_how_often_the_shield_changed_the_command(shield):
+    spec = EpisodeSpec(
+        "square",
+        "orca",
+        seed=3,
+        task_params={"time_limit": 4.0, "behavior": "orca", "robot_visible": False},
+        controller_params={"shield": {"time_horizon": 2.0}} if shield else {},
+    )
+    episode = Episode(spec)
+    changed = []
+    while not episode.done:
+        episode.step()
+        changed.append(episode.controller.diagnostics.shielded)
+    share = episode.result()["shield_share"]
+    if shield:
+        assert 0 < share < 1 and share == pytest.approx(np.mean(changed))
+    else:
+        assert share is None and set(changed) == {None}
+
+
 @pytest.mark.slow
 def test_bench_prints_a_summary_and_report_the_tables(tmp_path, capsys):
     db, out = tmp_path / "s.db", tmp_path / "report"

@@ -192,7 +192,8 @@ def test_a_schema_6_database_reports_its_path_sides_and_upgrades(tmp_path):
 def test_a_schema_7_database_reports_without_the_time_columns_and_upgrades(tmp_path):
     assert ADDED[8] == ("time_waiting", "time_slow", "detour")
     assert ADDED[9] == ("discomfort_frequency",)
-    assert SCHEMA_VERSION == 10 and ADDED[10] == ("intrusion_ratio", "social_distance")
+    assert ADDED[10] == ("intrusion_ratio", "social_distance")
+    assert SCHEMA_VERSION == 11 and ADDED[11] == ("shield_share",)
     exp, path, _ = _old_database(tmp_path, schema=7)
     with sqlite3.connect(path) as c:  # schema 7's filter-guard share, no longer declared
         c.execute("ALTER TABLE episodes ADD COLUMN guard_share REAL")
@@ -219,10 +220,12 @@ def test_a_schema_7_database_reports_without_the_time_columns_and_upgrades(tmp_p
     assert 0 <= rows[2]["time_waiting"] <= rows[2]["steps"] * DT
     assert 0 <= rows[2]["time_slow"] <= rows[2]["steps"] * DT
     with sqlite3.connect(path) as c:
-        assert c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone() == ("10",)
+        schema = c.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone()
+        assert schema == (str(SCHEMA_VERSION),)
         kept = c.execute("SELECT * FROM episodes ORDER BY env_index").fetchall()
     assert [row[: len(before[0])] for row in kept[:2]] == before  # every old value kept
-    assert kept[0][len(before[0]) :] == (None,) * 6  # the added columns (8 to 10), NULL
+    added = sum(len(ADDED[v]) for v in range(8, SCHEMA_VERSION + 1))
+    assert kept[0][len(before[0]) :] == (None,) * added  # the columns added since 7, NULL
     assert "guard_share" not in rows[0] and kept[2][len(before[0]) - 1] is None  # kept, unread
     text = write_report(path, tmp_path / "out", plots=False)
     diagnostics = next(b for b in text.split("\n\n") if b.startswith("| Noise | Row | ESS"))

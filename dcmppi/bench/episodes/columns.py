@@ -428,6 +428,18 @@ COLUMNS = (
         title="Tube deviation p95",
         digits=3,
     ),
+    Column(
+        "shield_share",
+        "REAL",
+        "the share of the steps at which the safety shield changed the planner's command (rows "
+        "with a shield only)",
+        since=11,
+        tables=("diagnostics",),
+        title="Shield changed",
+        digits=1,
+        percent=True,
+        statistic="per_step",
+    ),
     # where the time goes
     Column(
         "time_waiting",

@@ -28,7 +28,7 @@ class Diagnosis:
     set; fallback: whether `chosen == -1` (Alg. 1 over all samples) where `labels` is set;
     deviation: Tube-MPPI's real-to-nominal position distance at the start of the step, before
     any reset (`nominal_deviation`; else |x[:2] - nominal_state[:2]| where `nominal_state` is
-    set).
+    set); shielded: whether the safety shield changed the command, where `shielded` is a bool.
     """
 
     def __init__(self):
@@ -36,6 +36,7 @@ class Diagnosis:
         self.clusters: list[int] = []
         self.fallback: list[bool] = []
         self.deviation: list[float] = []
+        self.shielded: list[bool] = []
 
     def read(self, controller, state: np.ndarray) -> None:
         """Read the diagnostics of the step that `controller` just planned from `state` (3,)."""
@@ -47,6 +48,9 @@ class Diagnosis:
         if labels is not None:
             self.clusters.append(_clusters(np.asarray(labels)))
             self.fallback.append(getattr(d, "chosen", -1) == -1)
+        shielded = getattr(d, "shielded", None)
+        if isinstance(shielded, bool):
+            self.shielded.append(shielded)
         deviation = getattr(d, "nominal_deviation", None)
         nominal = getattr(d, "nominal_state", None)
         if isinstance(deviation, numbers.Real) and math.isfinite(deviation):
@@ -55,7 +59,8 @@ class Diagnosis:
             self.deviation.append(float(np.hypot(*(state[:2] - np.asarray(nominal)[:2]))))
 
     def result(self) -> dict:
-        """ess_mean, clusters_mean, fallback_share, tube_deviation_p95 (None: not recorded)."""
+        """ess_mean, clusters_mean, fallback_share, tube_deviation_p95, shield_share (None: not
+        recorded)."""
 
         def mean(xs):
             return float(np.mean(xs)) if xs else None
@@ -67,6 +72,7 @@ class Diagnosis:
             "tube_deviation_p95": float(np.percentile(self.deviation, 95))
             if self.deviation
             else None,
+            "shield_share": mean(self.shielded),
         }
 
 

@@ -126,7 +126,14 @@ SMOOTH_CASES = tuple(
         ("mppi", "mppi", "crowd-sf", WALK),
     )
 )
-CASES = BASE_CASES + SMOOTH_CASES + LEARNED_CASES
+# the safety shield after a planner and a classical planner among the corridor's 12 walkers:
+# its linear programs may cost at most 15 % of dc-cv's step
+SHIELD = {"shield": True}
+SHIELD_CASES = (
+    Case("dc-cv+shield", "dc", "corridor", {**CV, **SHIELD}, "dc-cv", target_ratio=1.15),
+    Case("dc-cv+smooth+shield", "dc", "corridor", {**CV, **SMOOTH, **SHIELD}, "dc-cv+smooth"),
+)
+CASES = BASE_CASES + SMOOTH_CASES + SHIELD_CASES + LEARNED_CASES
 
 # `--fingerprint`: every row of the table and the variants that take other code paths
 # (the learned rows aside: their plans depend on a trained model's bytes)
@@ -156,7 +163,13 @@ PACE_VARIANTS = (
     Case("mppi+smooth polar", "mppi", "corridor", {**WALK, **SMOOTH, **POLAR}),
     Case("tube holonomic polar", "tube", "forest+push", {"agent": "holonomic", **POLAR}),
 )
-FINGERPRINT_CASES = BASE_CASES + VARIANTS + PRESET_VARIANTS + PACE_VARIANTS
+# the shield's paths for the other agents (it turns the unicycle and slows it, turns the car)
+# where it changes their commands
+SHIELD_VARIANTS = SHIELD_CASES + tuple(
+    Case(f"dc-cv {agent}+shield", "dc", "corridor", {"agent": agent, "prediction": "cv", **SHIELD})
+    for agent in ("unicycle", "dubins")
+)
+FINGERPRINT_CASES = BASE_CASES + VARIANTS + PRESET_VARIANTS + PACE_VARIANTS + SHIELD_VARIANTS
 
 # `--profile`
 PROFILE_CASES = (

@@ -11,6 +11,8 @@
     temperature.py   lambda_="auto": the temperature chosen each step
     smoothing.py     the plan's filter, hysteresis in the choice of cluster (preset "smooth")
     diagnostics.py   what a step leaves for plots, videos and the bench
+    shield.py        the safety shield of the applied command, after any planner (option shield)
+    velocities.py    the obstacles' velocities and a velocity tracked, for classical and shield
     registry.py      the controllers by name (built-ins load on first use)
     classical/       the field's classical planners (orca, hrvo, hl, social_force, dwa)
 

@@ -8,8 +8,9 @@ Every controller accepts the shared parameters (defaults from dcmppi.control.def
 explained in docs/design.md): agent and its parameters (dubins: v, r_min; unicycle and holonomic:
 v_max, omega_max), robot_radius, dt, K, N, lambda_, ess_target, Sigma, gamma, alpha, beta, P, seed,
 perturbation, resolution, obstacle_margin, threads, prediction and its predictor's parameters,
-plus its own. Each step, the predictor turns the moving obstacles into tracks, the step's Objective
-scores rollouts, and the subclass's `_solve` plans with them.
+shield (the applied command's safety filter, dcmppi.control.planners.shield), plus its own. Each
+step, the predictor turns the moving obstacles into tracks, the step's Objective scores rollouts,
+and the subclass's `_solve` plans with them.
 """
 
 import functools
@@ -29,6 +30,7 @@ from dcmppi.control.planners.diagnostics import Diagnostics
 from dcmppi.control.planners.observations import observed_rows, observed_velocity, state_and_goal
 from dcmppi.control.planners.rollouts import Rollouts, start_states
 from dcmppi.control.planners.sampling import Sampler, correlation_param, perturbation_param
+from dcmppi.control.planners.shield import make_shield, shielded
 from dcmppi.control.planners.smoothing import PlanFilter
 from dcmppi.control.planners.temperature import (
     AUTO,
@@ -38,7 +40,6 @@ from dcmppi.control.planners.temperature import (
     temperature_param,
 )
 from dcmppi.control.predictors import predictor_class
-from dcmppi.control.predictors.base import INPUTS
 from dcmppi.control.timer import NO_TIMER
 from dcmppi.control.validation import choice, positive, seed_param, share
 
@@ -85,9 +86,12 @@ class Controller:
         "smooth": 9) and polynomial order (< window; default 2).
       cost_to_go, path_align, speed_weight: weights >= 0 of the objective's terms for time to
         the goal (dcmppi.control.objective.Pace; 0: off, the default).
+      shield: the safety shield of the applied control (dcmppi.control.planners.shield): None or
+        false (off, the default), true, or a dict of its time_horizon and margin.
     Attributes: agent, predictor, sampler (sampling.Sampler), plan_filter
-      (smoothing.PlanFilter), pace (objective.Pace), objective (the last step's),
-      diagnostics (the last step's), timer (the profile's hook, dcmppi.control.timer).
+      (smoothing.PlanFilter), pace (objective.Pace), safety (shield.Shield or None), objective
+      (the last step's), diagnostics (the last step's), timer (the profile's hook,
+      dcmppi.control.timer).
 
     A subclass implements `_solve(state)` -> (nu,) controls, and may override the seams of a
     step's per-sample work (perturbed_rollouts). sample() runs once per step on the calling
@@ -129,11 +133,12 @@ class Controller:
         preset=None,
         filter_window=None,
         filter_order=None,
+        shield=None,
         **other,
     ):
         self.preset = choice("preset", "paper" if preset is None else preset, tuple(PRESETS))
         self.prediction = prediction or self.default_prediction
-        predictor = predictor_for(self.prediction)
+        predictor = predictor_class(self.prediction)
         predictor_params = {n: other.pop(n) for n in predictor.own_params if n in other}
         pace = {n: other.pop(n, None) for n in PACE_PARAMS}
         self.agent = make_agent(agent, **other)
@@ -148,15 +153,14 @@ class Controller:
         self.alpha = positive("alpha", alpha, allow_zero=True)
         self.beta = positive("beta", beta, allow_zero=True)
         self.P = positive("P", P, integer=True)
-        self.perturbation = perturbation_param(
-            self.option("perturbation", perturbation, None), self.agent
-        )
+        perturbation = self.option("perturbation", perturbation)
+        self.perturbation = perturbation_param(perturbation, self.agent)
         self.correlation = correlation_param(correlation, self.perturbation)
         self.resolution = positive("resolution", resolution)
         self.obstacle_margin = positive("obstacle_margin", obstacle_margin, allow_zero=True)
         self.threads = positive("threads", threads, integer=True)
         self.seed = seed_param(seed)
-        self._components(predictor, predictor_params, filter_window, filter_order, pace)
+        self._components(predictor, predictor_params, filter_window, filter_order, pace, shield)
         # gamma lambda Sigma^-1 of the importance term, per control (lambda = 1 with "auto")
         lam = 1.0 if self.lambda_ == AUTO else self.lambda_
         self._importance_weight = (self.gamma * lam) / self.Sigma
@@ -165,11 +169,12 @@ class Controller:
         self._grid = self.objective = self.rng = None
         self.reset(seed)
 
-    def _components(self, predictor, predictor_params, filter_window, filter_order, pace):
+    def _components(self, predictor, predictor_params, filter_window, filter_order, pace, shield):
         """The step's components from the checked parameters: the sampler, the plan's filter
         (of the given or the preset's window and order), the objective's Pace (of the given
-        or the preset's weights `pace`, {name: value or None}) and the predictor (of the class
-        `predictor`, with its own parameters)."""
+        or the preset's weights `pace`, {name: value or None}), the predictor (of the class
+        `predictor`, with its own parameters) and the safety shield (of the option `shield`)."""
+        self.shield, self.safety = make_shield(shield, self.agent, self.robot_radius, self.dt)
         self.sampler = Sampler(
             self.agent, self.Sigma, self.N, self.K, self.perturbation, self.correlation,
             self.threads,
@@ -195,10 +200,10 @@ class Controller:
         "agent", "robot_radius", "dt", "K", "N", "lambda_", "ess_target", "Sigma", "gamma",
         "alpha", "beta", "P", "seed", "perturbation", "correlation", "resolution",
         "obstacle_margin", "threads", "prediction", "preset", "filter_window", "filter_order",
-        *PACE_PARAMS,
+        *PACE_PARAMS, "shield",
     )  # fmt: skip
 
-    def option(self, name, value, default):
+    def option(self, name, value, default=None):
         """A parameter's value: `value` when given (not None), else the preset's, else
         `default`."""
         return PRESETS[self.preset].get(name, default) if value is None else value
@@ -294,6 +299,10 @@ class Controller:
             self.objective = Objective(goal, self._grid, self.alpha, prediction, pace, state[:2])
         self.diagnostics.prediction = prediction
         u = self._solve(state)
+        if self.safety is not None:
+            with self.timer("shield"):
+                args = (static, moving, velocity, obstacle_model, bounds)
+                u = shielded(self.safety, self.diagnostics, state, u, *args)
         self.diagnostics.action = u
         self.plan_filter.record(u)
         return u
@@ -303,14 +312,10 @@ class Controller:
 
     def _inputs(self, state, velocity, futures):
         """The keywords named in the predictor's `inputs` (predictors.base.INPUTS)."""
-        inputs = {}
-        if "velocity" in self.predictor.inputs:
-            inputs["velocity"] = velocity
-        if "futures" in self.predictor.inputs:
-            inputs["futures"] = futures
+        inputs = {"velocity": velocity, "futures": futures}
         if "robot_plan" in self.predictor.inputs:
             inputs["robot_plan"] = self.agent.rollout_one(state, self.U, self.dt)
-        return inputs
+        return {n: v for n, v in inputs.items() if n in self.predictor.inputs}
 
     # --- building blocks: the seams a subclass may override -------------------------------
 
@@ -434,16 +439,3 @@ def shifted(plan):
     out[:-1] = plan[1:]
     out[-1] = plan[-1]
     return out
-
-
-def predictor_for(prediction):
-    """The predictor class named `prediction`; a ValueError when it asks for inputs that no
-    controller gives."""
-    predictor = predictor_class(prediction)
-    unknown = [n for n in predictor.inputs if n not in INPUTS]
-    if unknown:
-        raise ValueError(
-            f"prediction {prediction!r} asks for inputs {unknown} that no controller gives; "
-            f"valid inputs: {', '.join(INPUTS)}"
-        )
-    return predictor

@@ -22,6 +22,7 @@ class Diagnostics:
     plan: (N, nu) the optimised control sequence; action: (nu,) the applied controls.
     prediction: the step's dcmppi.control.Prediction of the moving obstacles (tracks, and the
       sampled futures and filter posterior where the predictor makes them).
+    shielded: whether the safety shield changed the planner's command (None: no shield).
     """
 
     eps: np.ndarray = None
@@ -35,6 +36,7 @@ class Diagnostics:
     plan: np.ndarray = None
     action: np.ndarray = None
     prediction: object = None
+    shielded: bool = None
 
 
 @dataclasses.dataclass

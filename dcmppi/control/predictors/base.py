@@ -140,10 +140,18 @@ def predictor_names() -> list[str]:
 def predictor_class(name) -> type:
     """The class of predictor `name`: a registered name, or `package.module:ClassName` of a
     Predictor subclass (imported here, so that every worker of a benchmark finds it); a
-    ValueError names the valid ones."""
+    ValueError names the valid ones, or the inputs it asks for that no controller gives."""
     if isinstance(name, str) and ":" in name and name not in PREDICTORS:
-        return _import(name)
-    return PREDICTORS.get(name)
+        cls = _import(name)
+    else:
+        cls = PREDICTORS.get(name)
+    unknown = [n for n in cls.inputs if n not in INPUTS]
+    if unknown:
+        raise ValueError(
+            f"prediction {name!r} asks for inputs {unknown} that no controller gives; "
+            f"valid inputs: {', '.join(INPUTS)}"
+        )
+    return cls
 
 
 def _import(name):

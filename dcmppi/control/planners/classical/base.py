@@ -23,10 +23,11 @@ from dcmppi.control.kernels.costs import valid_cylinders
 from dcmppi.control.kernels.projection import bound
 from dcmppi.control.planners.diagnostics import Diagnostics
 from dcmppi.control.planners.observations import observed_velocity, state_and_goal
+from dcmppi.control.planners.shield import make_shield, shielded
+from dcmppi.control.planners.velocities import moving_obstacle_velocity
 from dcmppi.control.validation import floats, positive, seed_param
 
 RANGE = 10.0  # [m] obstacles whose surface lies this far from the robot's are ignored
-TURN_TAU = 0.5  # [s] heading error -> turn rate (navground's default rotation_tau)
 PLAN_STEPS = 20  # the drawn plan: the command held for this many control steps (2 s)
 
 
@@ -37,7 +38,8 @@ class Classical:
       class's `needs_speed` allows) and its parameters (dubins: v, r_min; unicycle and
       holonomic: v_max, omega_max; None: the agent's default), robot_radius [m], dt: the
       control period [s], seed: accepted for the common interface (these planners draw
-      nothing: the same observations give the same commands).
+      nothing: the same observations give the same commands), shield: the safety shield of the
+      command (dcmppi.control.planners.shield; None or false: off, the default).
     A subclass implements `_solve(obs)` -> (nu,) controls, through the agent's answers
     (`holonomic`, `steers_only`, `command`, `world_velocity`), never its name.
     """
@@ -58,6 +60,7 @@ class Classical:
         r_min=None,
         v_max=None,
         omega_max=None,
+        shield=None,
     ):
         kind = type(agent) if isinstance(agent, Agent) else agent_class(agent)
         if self.needs_speed and kind.steers_only:
@@ -71,6 +74,7 @@ class Classical:
         self.robot_radius = positive("robot_radius", robot_radius, allow_zero=True)
         self.dt = positive("dt", dt)
         self.seed = seed_param(seed)
+        self.shield, self.safety = make_shield(shield, self.agent, self.robot_radius, self.dt)
         self.reset()
 
     @classmethod
@@ -134,6 +138,9 @@ class Classical:
             bounds=None if bounds is None else floats("bounds", bounds).reshape(4),
         )
         u = bound(self.agent, np.asarray(self._solve(obs), dtype=np.float64))
+        if self.safety is not None:
+            args = (obs.static, obs.moving, obs.moving_velocity, None, obs.bounds)
+            u = shielded(self.safety, self.diagnostics, state, u, *args)
         self.velocity, self.omega = self.agent.world_velocity(state[2], u)
         plan = np.tile(u, (PLAN_STEPS, 1))
         d = self.diagnostics
@@ -172,45 +179,9 @@ class Observation:
         return np.array([[x0, y0, x1, y0], [x1, y0, x1, y1], [x1, y1, x0, y1], [x0, y1, x0, y0]])
 
 
-def moving_obstacle_velocity(moving, velocity, obstacle_model):
-    """World-frame velocities (L, 2) of the moving obstacles: the observed ones; where a row is
-    not observed (nan, or no moving_velocity) the model's mean speed along the observed heading,
-    else at rest."""
-    out = np.zeros((len(moving), 2))
-    known = np.zeros(len(moving), dtype=bool)
-    if velocity is not None:
-        known = np.isfinite(velocity).all(axis=1)
-        out[known] = velocity[known]
-    if obstacle_model is not None:
-        speed = float(floats("obstacle_model", obstacle_model).reshape(-1)[0])
-        heading = moving[:, 2]
-        fill = ~known & np.isfinite(heading) & math.isfinite(speed)
-        out[fill, 0] = speed * np.cos(heading[fill])
-        out[fill, 1] = speed * np.sin(heading[fill])
-    return out
-
-
 def start_velocity(agent, heading):
     """The robot's world-frame velocity (2,) before its first command: an agent that steers
     only at its speed along its heading, any other at rest."""
     if agent.steers_only:
         return agent.max_speed * np.array([math.cos(heading), math.sin(heading)])
     return np.zeros(2)
-
-
-def track(agent, heading, velocity):
-    """Controls (nu,) that follow a desired world-frame velocity (2,): a holonomic agent
-    commands it (keeping its heading); the others turn towards it at error / TURN_TAU (clipped
-    to their turn rate) at the desired speed times the cosine of the heading error (0 when
-    facing away; an agent that steers only keeps its own)."""
-    vx, vy = float(velocity[0]), float(velocity[1])
-    if agent.holonomic:
-        return agent.command((vx, vy), 0.0)
-    speed = math.hypot(vx, vy)
-    error = 0.0 if speed == 0.0 else wrap(math.atan2(vy, vx) - heading)
-    return agent.command((speed * max(math.cos(error), 0.0), 0.0), error / TURN_TAU)
-
-
-def wrap(angle):
-    """angle wrapped to [-pi, pi)."""
-    return (angle + math.pi) % (2.0 * math.pi) - math.pi

@@ -14,7 +14,7 @@ trajectories with DWB's critics that need no global path:
     speed         -speed_scale v / v_max (Fox et al.'s velocity term; 0 by default: DWB has no
                   speed critic, its GoalDist rewards progress)
 
-Moving obstacles are extrapolated at their observed velocities (base.moving_obstacle_velocity)
+Moving obstacles are extrapolated at their observed velocities (velocities.moving_obstacle_velocity)
 and checked at each simulated instant. The cost is the sum of the scaled critics; the best legal
 trajectory's velocity is the command. When every trajectory is illegal (DWB would report no
 valid command) the one whose first collision comes latest is taken.

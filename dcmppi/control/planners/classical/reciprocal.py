@@ -3,7 +3,7 @@
 Each step the behaviour gets the robot's pose, its last command as its velocity (and as the
 twist it relaxes from), the goal as its target point, and within RANGE of the robot the static
 cylinders as discs, the moving obstacles as neighbours with their observed velocities (see
-base.moving_obstacle_velocity) and the map's edges as line obstacles (HRVO ignores lines, as
+velocities.moving_obstacle_velocity) and the map's edges as line obstacles (HRVO ignores lines, as
 for the pedestrians); it returns a feasible twist for the agent's kinematics:
 
     holonomic   navground's OmnidirectionalKinematics (max_speed, omega_max): the command is

@@ -6,7 +6,7 @@ velocity points at the goal at its preferred speed, it relaxes from its last com
 in tau and is pushed by the static cylinders and the moving obstacles within RANGE (as agents
 that it does not move: their velocities play no part in the circular form) and by the map's
 edges (as walls). The kernel's velocity after one control period is the command: the holonomic
-robot's as it is; the unicycle turns towards it (base.track). The car (dubins), which can
+robot's as it is; the unicycle turns towards it (velocities.track). The car (dubins), which can
 neither slow down nor sidestep, is refused. The walker's velocity
 is the kernel's own state from step to step (what a non-holonomic robot makes of it would lose
 the sideways push at every step).
@@ -15,8 +15,9 @@ the sideways push at every step).
 import numpy as np
 
 from dcmppi.control.kernels import social
-from dcmppi.control.planners.classical.base import RANGE, Classical, track
+from dcmppi.control.planners.classical.base import RANGE, Classical
 from dcmppi.control.planners.registry import register
+from dcmppi.control.planners.velocities import track
 from dcmppi.control.validation import positive
 
 

@@ -53,3 +53,8 @@ PRESETS = {
         "hysteresis": 50.0,
     },
 }
+# "crowds": the setting for a robot among people (docs/pedestrians.md, The crowds preset), chosen
+# on tuning environments across the MPPI-family rows: "smooth", plus an update at the samples'
+# mean speed (speed_mean "polar", holonomic robots), a weak importance term (gamma 0.1, which
+# otherwise favours samples slower than the warm start) and the safety shield (its defaults).
+PRESETS["crowds"] = {**PRESETS["smooth"], "gamma": 0.1, "speed_mean": "polar", "shield": True}

@@ -106,6 +106,14 @@ def test_a_preset_sets_the_options_and_gamma(monkeypatch):
     assert given.gamma == 1.0
 
 
+def test_the_crowds_preset_is_smooth_with_polar_speed_a_weak_importance_term_and_the_shield():
+    ctrl = dcmppi.make_controller("dc", agent="holonomic", prediction="cv", preset="crowds")
+    assert (ctrl.speed_mean, ctrl.gamma, ctrl.perturbation) == ("polar", 0.1, "correlated")
+    assert ctrl.filter_window == 9 and ctrl.lambda_ == "auto" and ctrl.safety is not None
+    off = dcmppi.make_controller("dc", agent="holonomic", preset="crowds", shield=False)
+    assert off.safety is None  # a given option wins over the preset's
+
+
 def test_the_importance_term_drags_a_velocity_robot():
     # gamma lambda U0^T Sigma^-1 e is least for perturbations against the warm start: slower
     assert speed(drive(gamma=0.1)) > speed(drive()) + 0.1

@@ -79,8 +79,8 @@ class Controller:
         package.module:ClassName; default `default_prediction` ("frozen"; dc: "prior"). Its
         own parameters go alongside.
       preset: a name of dcmppi.control.defaults.PRESETS: "paper" (default: the paper's
-        algorithms) or "smooth" (plans a robot can follow); it sets perturbation, lambda_,
-        ess_target, the filter below and clustered's hysteresis where they are not given.
+        algorithms), "smooth" (plans a robot can follow) or "crowds" (among people); it sets
+        the options it names where they are not given.
       filter_window, filter_order: the Savitzky-Golay filter of the plan
         (dcmppi.control.planners.smoothing), its odd window (>= 3; 0: no filter, the default;
         "smooth": 9) and polynomial order (< window; default 2).
@@ -174,6 +174,7 @@ class Controller:
         (of the given or the preset's window and order), the objective's Pace (of the given
         or the preset's weights `pace`, {name: value or None}), the predictor (of the class
         `predictor`, with its own parameters) and the safety shield (of the option `shield`)."""
+        shield = self.option("shield", shield)
         self.shield, self.safety = make_shield(shield, self.agent, self.robot_radius, self.dt)
         self.sampler = Sampler(
             self.agent, self.Sigma, self.N, self.K, self.perturbation, self.correlation,

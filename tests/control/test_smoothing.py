@@ -133,7 +133,7 @@ def test_unknown_preset_is_one_line_naming_the_valid_ones():
         dcmppi.make_controller("mppi", preset="silky")
     message = str(error.value)
     assert "\n" not in message
-    assert message == "preset must be one of paper, smooth; got 'silky'"
+    assert message == "preset must be one of paper, smooth, crowds; got 'silky'"
 
 
 @pytest.mark.parametrize(

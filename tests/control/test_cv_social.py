@@ -32,6 +32,29 @@ def test_cv_futures_are_the_constant_velocity_formula():
     assert p.weight == 100.0 / 5 and p.unit == 100.0
 
 
+def test_cv_std_still_ramps_the_spread_from_standing_to_walking():
+    """sigma_l = still + (cv_std - still) min(|v_l| / STILL_SPEED, 1): standing people spread
+    by cv_std_still, people at STILL_SPEED and above by cv_std, linearly between."""
+    from dcmppi.control.predictors.cv import STILL_SPEED
+
+    cv = make_predictor("cv", cv_std=0.4, cv_std_still=0.1, **SHARED)
+    moving = np.array([[1.0, 2.0, 0.0, 0.3], [-2.0, 0.5, 0.0, 0.3], [0.0, -3.0, 0.0, 0.3]])
+    velocity = np.array([[0.0, 0.0], [0.5 * STILL_SPEED, 0.0], [0.0, 1.2]])
+    p = cv.predict(np.zeros(3), moving, None, np.random.default_rng(7), velocity=velocity)
+    noise = np.random.default_rng(7).standard_normal((3, 5, 2))
+    sigma = np.array([0.1, 0.25, 0.4])
+    dv = sigma[:, None, None] * noise
+    t = 0.1 * np.arange(21)
+    expected = moving[:, None, None, :2] + (velocity[:, None, None] + dv[:, :, None]) * t[:, None]
+    np.testing.assert_allclose(p.futures, expected, rtol=0, atol=1e-14)
+    same = make_predictor("cv", cv_std=0.4, **SHARED)  # None: cv_std for everyone
+    q = same.predict(np.zeros(3), moving, None, np.random.default_rng(7), velocity=velocity)
+    np.testing.assert_allclose(q.futures[:, :, -1] - p.futures[:, :, -1],
+                               ((0.4 - sigma)[:, None, None] * noise) * 2.0, atol=1e-12)
+    with pytest.raises(ValueError, match="cv_std_still"):
+        make_predictor("cv", cv_std_still=-0.1, **SHARED)
+
+
 def test_cv_skips_exactly_the_obstacles_no_future_can_reach():
     """Left out iff |p_0 - o| > (v_max + |v + dv_p|) N dt + robot_radius + r + margin for
     every future p: an obstacle on that reach is kept, one a micrometre beyond is not."""

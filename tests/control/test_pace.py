@@ -110,8 +110,13 @@ def test_the_crowds_preset_is_smooth_with_polar_speed_a_weak_importance_term_and
     ctrl = dcmppi.make_controller("dc", agent="holonomic", prediction="cv", preset="crowds")
     assert (ctrl.speed_mean, ctrl.gamma, ctrl.perturbation) == ("polar", 0.1, "correlated")
     assert ctrl.filter_window == 9 and ctrl.lambda_ == "auto" and ctrl.safety is not None
-    off = dcmppi.make_controller("dc", agent="holonomic", preset="crowds", shield=False)
-    assert off.safety is None  # a given option wins over the preset's
+    assert ctrl.predictor.cv_std_still == 0.1 and ctrl.params["cv_std_still"] == 0.1
+    off = dcmppi.make_controller(
+        "dc", agent="holonomic", prediction="cv", preset="crowds", shield=False, cv_std_still=0.3
+    )
+    assert off.safety is None and off.predictor.cv_std_still == 0.3  # given options win
+    social = dcmppi.make_controller("dc", agent="holonomic", prediction="social", preset="crowds")
+    assert "cv_std_still" not in social.params  # only predictors that take it get it
 
 
 def test_the_importance_term_drags_a_velocity_robot():

@@ -139,7 +139,8 @@ class Controller:
         self.preset = choice("preset", "paper" if preset is None else preset, tuple(PRESETS))
         self.prediction = prediction or self.default_prediction
         predictor = predictor_class(self.prediction)
-        predictor_params = {n: other.pop(n) for n in predictor.own_params if n in other}
+        predictor_params = {n: self.option(n, other.pop(n, None)) for n in predictor.own_params}
+        predictor_params = {n: v for n, v in predictor_params.items() if v is not None}
         pace = {n: other.pop(n, None) for n in PACE_PARAMS}
         self.agent = make_agent(agent, **other)
         self.robot_radius = positive("robot_radius", robot_radius, allow_zero=True)

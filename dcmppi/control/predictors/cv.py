@@ -6,7 +6,10 @@ planner's rng:
 
     o_l^p(t_i) = o_l + (v_l + dv_lp) t_i,   t_i = i dt, i = 0..N,
 
-so the futures spread linearly with time (std cv_std t_i per axis). Every future has
+so the futures spread linearly with time (std sigma_l t_i per axis). sigma_l is cv_std, or with
+cv_std_still given, a ramp from cv_std_still for an obstacle observed standing to cv_std at
+STILL_SPEED and above: in the ETH/UCY recordings people standing (under 0.1 m/s) keep their
+velocity 2-3 times as well as walkers do (docs/crowds.md). Every future has
 theta = 1 / P, a certain collision with an obstacle costs beta, as in "prior". An obstacle is
 left out exactly as in "prior", with |v_l + dv_lp| as the speed of future p.
 
@@ -26,6 +29,9 @@ from dcmppi.control.validation import positive
 # within a few seconds; 0.3 m/s (a quarter of a walking speed, a heading error of about 15 deg)
 # spreads the futures by about 1.5 m at a 5 s horizon, a sidestep or a slowdown.
 CV_STD = 0.3
+# Speed [m/s] from which an obstacle's error is cv_std: in the recordings, people at 0.1-0.3 m/s
+# already change their velocity as much as walkers.
+STILL_SPEED = 0.3
 
 
 def check_velocity(velocity, moving, name):
@@ -49,20 +55,28 @@ def check_velocity(velocity, moving, name):
 class ConstantVelocity(SampledFutures):
     """P constant-velocity futures per obstacle (module docstring).
 
-    Extra args: cv_std: std of each future's velocity error per axis [m/s] (>= 0).
+    Extra args: cv_std: std of each future's velocity error per axis [m/s] (>= 0);
+    cv_std_still: the std for an obstacle observed standing [m/s] (>= 0; None: cv_std).
     """
 
-    own_params = ("cv_std",)
+    own_params = ("cv_std", "cv_std_still")
     inputs = ("velocity",)
 
-    def __init__(self, *, cv_std=CV_STD, **shared):
+    def __init__(self, *, cv_std=CV_STD, cv_std_still=None, **shared):
         self.cv_std = positive("cv_std", cv_std, allow_zero=True)
+        self.cv_std_still = (
+            None if cv_std_still is None else positive("cv_std_still", cv_std_still, allow_zero=True)
+        )
         super().__init__(**shared)
 
     def velocities(self, moving, velocity, rng):
         """(L, P, 2) the velocity of every future: v_l + dv_lp of the L moving obstacles."""
         velocity = check_velocity(velocity, moving, self.name)
-        return velocity[:, None] + self.cv_std * standard_normal(rng, (len(moving), self.P, 2))
+        std = self.cv_std
+        if self.cv_std_still is not None:
+            ramp = np.minimum(np.hypot(velocity[:, 0], velocity[:, 1]) / STILL_SPEED, 1.0)
+            std = (self.cv_std_still + (self.cv_std - self.cv_std_still) * ramp)[:, None, None]
+        return velocity[:, None] + std * standard_normal(rng, (len(moving), self.P, 2))
 
     def predict(self, state, moving, obstacle_model, rng, velocity=None):
         if len(moving) == 0:

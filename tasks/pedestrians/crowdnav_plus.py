@@ -11,8 +11,11 @@ goal respawns: a fresh draw by the same rule against the others' positions and g
 the robot's start and goal (theirs: the robot's position now; its start keeps the humans' paths
 independent of the controller, as prediction "given" needs), keeping its velocity (theirs
 restarts at rest; with a holonomic robot their end_goal_changing respawns whatever
-end_goal_change_chance). Goals changed before arrival (their random_goal_changing, p = 0.5
-every 5 s in config.py) are not modelled: the configs of the released logs turn them off. They
+end_goal_change_chance). Goals changed before arrival (their random_goal_changing, chance 0.5
+in config.py; the configs of the released logs turn it off, as `goal_change_chance` 0 does
+here): every GOAL_CHANGE_PERIOD each human in turn, with that chance, gets a goal on the circle
+shifted by U(-v_pref / 2, v_pref / 2) per coordinate, drawn until at DISCOMFORT_DISTANCE from
+the others' positions and goals and the robot's start and goal (theirs: its position). They
 walk by ORCA with SAFETY_SPACE added to every disc, at most v_pref,
 slowing within 1 m of the goal (walkers). The robot: start and goal uniform in
 [-ARENA_SIZE, ARENA_SIZE]^2, redrawn until ROBOT_SPACING apart, holonomic, 1 m/s, radius 0.3 m,
@@ -56,6 +59,7 @@ SAFETY_SPACE = 0.16  # [m] ORCA's radius + 0.01 + orca.safety_space (0.15)
 TIME_LIMIT = 50.0  # [s] env.time_limit (their check ends episodes at 49 s)
 TEST_SEED = 1000  # case_capacity["val"]: the test phase's seed offset
 SEED = 425  # --seed of the logs of their ORCA and social-force robots (their model's: 125)
+GOAL_CHANGE_PERIOD = 5.0  # [s] between their random_goal_changing rounds
 
 
 class CrowdNavPlus(CrowdNav):
@@ -64,7 +68,8 @@ class CrowdNavPlus(CrowdNav):
     discs `safety_space` wider. The rest as `crowdnav` (human_radius, v_pref,
     randomize_attributes: each human draws v_pref then radius, and keeps them on respawning;
     behavior, robot_visible, obstacles: the robot's start and goal are redrawn off them too);
-    `case` k: CrowdNav++'s test draw k (module docstring) whatever the episode's seed.
+    `case` k: CrowdNav++'s test draw k (module docstring) whatever the episode's seed;
+    goal_change_chance: each human's chance of a new goal every GOAL_CHANGE_PERIOD (0: none).
     """
 
     def __init__(
@@ -83,8 +88,15 @@ class CrowdNavPlus(CrowdNav):
         case=None,
         robot_radius=HUMAN_RADIUS,
         time_limit=TIME_LIMIT,
+        goal_change_chance=0.0,
         **kwargs,
     ):
+        self.goal_change_chance = positive("goal_change_chance", goal_change_chance, allow_zero=True)
+        if self.goal_change_chance > 1:
+            raise ValueError(
+                f"goal_change_chance must be a probability in [0, 1] (CrowdNav++'s: 0.5); got "
+                f"{goal_change_chance!r}"
+            )
         self.arena_size = positive("arena_size", arena_size)
         self.robot_spacing = positive("robot_spacing", robot_spacing)
         self.safety_space = positive("safety_space", safety_space, allow_zero=True)
@@ -144,6 +156,26 @@ class CrowdNavPlus(CrowdNav):
         self._physics = physics
         super().initialize_episode(physics)
         self._goals = self.world.moving_goal.copy()
+        if self.goal_change_chance > 0:
+            physics.obstacle_motion.change_goals = self.change_goals
+
+    def change_goals(self, random, step, position, goal):
+        """The humans' goals (L, 2) after CrowdNav++'s round of goal changes (module docstring)
+        where `step` control periods make a whole number of GOAL_CHANGE_PERIOD, else `goal`."""
+        period = round(GOAL_CHANGE_PERIOD / self._physics.control_period)
+        if step == 0 or step % period:
+            return goal
+        radii = self._physics.moving_obstacles()[:, 3]
+        for i in range(len(goal)):
+            if random.random_sample() <= self.goal_change_chance:
+                others = [j for j in range(len(goal)) if j != i]
+                agents = [(self.world.start[:2], self.world.goal, self.robot_radius)]
+                agents += [(position[j], goal[j], radii[j]) for j in others]
+                v_pref = self._physics.obstacle_motion.pref_speed[i]
+                new = _goal(random, self.circle_radius, v_pref, radii[i], agents)
+                goal[i] = goal[i] if new is None else new
+        self._goals = goal.copy()
+        return goal
 
     def next_goal(self, random, i, position):
         """Human i respawns (module docstring): (start, goal), or (None, its goal) where no
@@ -243,5 +275,19 @@ def _start(random, circle_radius, radius, agents, obstacles):
         xy = circle_radius * np.array([np.cos(angle), np.sin(angle)]) + noise
         points = [(xy, a[0], a[2]) for a in agents] + [(xy, a[1], a[2]) for a in agents]
         if _apart(points, radius, DISCOMFORT_DISTANCE) and _clear_of(obstacles, radius, xy, -xy):
+            return xy
+    return None
+
+
+def _goal(random, circle_radius, v_pref, radius, agents):
+    """A goal (2,) on the circle shifted by U(-v_pref / 2, v_pref / 2) per coordinate, at
+    DISCOMFORT_DISTANCE from the agents' (position, goal, radius) positions and goals; None after
+    TRIES draws."""
+    for _ in range(TRIES):
+        angle = random.random_sample() * 2.0 * math.pi
+        noise = (random.random_sample() - 0.5) * v_pref, (random.random_sample() - 0.5) * v_pref
+        xy = circle_radius * np.array([np.cos(angle), np.sin(angle)]) + noise
+        points = [(xy, a[0], a[2]) for a in agents] + [(xy, a[1], a[2]) for a in agents]
+        if _apart(points, radius, DISCOMFORT_DISTANCE):
             return xy
     return None

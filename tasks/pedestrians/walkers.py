@@ -18,7 +18,10 @@ speed, as the social force does. ORCA uses CrowdNav's settings (time horizons 5 
 neighbours). navground computes in float32; positions integrate in float64 here.
 
 A pedestrian within its radius of its goal gets the next from next_goal at the start of the
-next control period: a new goal, or a respawn somewhere else (the density stays). With
+next control period: a new goal, or a respawn somewhere else (the density stays). A task may
+also set `change_goals(random, step, position, goal) -> goal` (L, 2), called at the start of
+every control period after the arrivals (step: the periods walked so far), to change goals
+before arrival. With
 stop_at_goal (CrowdNav's humans) it keeps its goal and stops there instead: its desired speed is
 min(preferred speed, distance to the goal / ARRIVAL_TIME), its top speed the preferred one.
 """
@@ -152,6 +155,7 @@ class Pedestrians:
         self._max_speed = (1.0 if self._slow_at_goal else MAX_SPEED_FACTOR) * self.pref_speed
         self._space = positive("safety_space", safety_space, allow_zero=True)
         self._behaviors = None if self._spec.navground is None else self._navground_behaviors()
+        self.change_goals, self._steps = None, 0
 
     def advance(self, n, robot_xy, robot_velocity) -> np.ndarray:
         """Moves one control period in n substeps; returns the centres after each substep as
@@ -162,6 +166,10 @@ class Pedestrians:
             robot_velocity = array("robot_velocity", robot_velocity, (2,), finite=True)
         if not self._stop_at_goal:
             self._arrivals()
+        if self.change_goals is not None:
+            goal = self.change_goals(self._random, self._steps, self._pos.copy(), self.goal.copy())
+            self.goal = array("change_goals' goals", goal, self.goal.shape, finite=True)
+        self._steps += 1
         start = self._pos
         desired = self._desired()
         if self._behaviors is None:

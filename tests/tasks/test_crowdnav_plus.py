@@ -102,6 +102,41 @@ def test_humans_respawn_on_the_circle_on_arrival():
     assert respawned
 
 
+def test_goals_change_every_five_seconds_with_the_given_chance():
+    """CrowdNav++'s random_goal_changing: nothing before 5 s; at 5 s each human (chance 1)
+    walks to a new goal on the circle shifted by at most v_pref / 2 per coordinate, clear of
+    the others' positions and goals; with chance 0 (the default) no goal changes."""
+    changed = {}
+    for chance in (0.0, 1.0):
+        env = tasks.load(
+            "crowdnav_plus", task_kwargs={"n_humans": 6, "random": 5, "goal_change_chance": chance}
+        )
+        env.reset()
+        walkers = env.physics.obstacle_motion
+        goals = [walkers.goal.copy()]
+        for _ in range(51):  # the round runs as period 50 (5 s) starts
+            env.step(HOLD)
+            goals.append(walkers.goal.copy())
+        assert env.task.outcome is None  # the robot standing at its start is not hit
+        moved = [np.abs(g - goals[0]).max(axis=1) > 1e-9 for g in goals]
+        changed[chance] = moved
+        assert not any(m.any() for m in moved[:50])  # nobody arrives within 5 s
+        if chance:
+            assert moved[51].all()
+            new, where = goals[51], env.physics.moving_obstacles()[:, :2]
+            offset = new - crowdnav_plus.CIRCLE_RADIUS * new / np.hypot(*new.T)[:, None]
+            assert (np.hypot(*offset.T) <= np.sqrt(0.5) + 1e-9).all()
+            for i in range(6):  # 0.3 + 0.3 + 0.25 from the others' goals and positions then
+                others = np.concatenate([new[:i], goals[50][i + 1 :], where[np.arange(6) != i]])
+                assert np.hypot(*(others - new[i]).T).min() >= 0.85 - 0.1  # they walked 0.1 m
+    assert not changed[0.0][51].any()
+
+
+def test_goal_change_chance_is_a_probability():
+    with pytest.raises(ValueError, match=r"goal_change_chance must be a probability in \[0, 1\]"):
+        tasks.load("crowdnav_plus", task_kwargs={"goal_change_chance": 1.5})
+
+
 def _closest_pass(safety_space):
     """Two ORCA pedestrians head-on, 0.2 m off line: their smallest centre distance."""
     peds = Pedestrians(

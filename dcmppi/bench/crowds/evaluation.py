@@ -15,16 +15,24 @@ import tempfile
 import numpy as np
 
 from dcmppi.bench.crowds import forecast_metrics, forecasters
+from dcmppi.control.defaults import PRESETS
 from dcmppi.control.predictors import learned, predictor_class
 from dcmppi.tasks.replay import recordings
 
 OBS, PRED = 8, 12
 PERIOD = recordings.PERIOD
 BASELINES = {"cv": forecasters.constant_velocity, "cv-noise": forecasters.heading_noise}
-# rows that are the project's predictors under another name: `cv` is the field's one-sample
-# baseline, so the `cv` predictor (Gaussian velocity errors) is the row cv-sampled
-ALIASES = {"cv-sampled": "cv"}
-ROWS = ("cv", "cv-noise", "cv-sampled", "prior", "ekf", "social", "learned-tracks", "learned")
+# rows that are the project's predictors under another name, (predictor, its parameters): `cv`
+# is the field's one-sample baseline, so the `cv` predictor (Gaussian velocity errors) is the row
+# cv-sampled; cv-still is it with the crowds preset's spread for people standing
+ALIASES = {
+    "cv-sampled": ("cv", {}),
+    "cv-still": ("cv", {"cv_std_still": PRESETS["crowds"]["cv_std_still"]}),
+}
+ROWS = (
+    "cv", "cv-noise", "cv-sampled", "cv-still", "prior", "ekf", "social", "learned-tracks",
+    "learned",
+)  # fmt: skip
 LEARNED = ("learned", "learned-tracks")  # the rows of a learned model
 COLUMNS = ("ade", "fde", "min_ade", "min_fde", "nll", "coverage")
 # Five-scene averages from the papers (../shared/crowds/README.md): most likely, best of 20
@@ -49,8 +57,9 @@ def evaluate(
 ) -> dict:
     """Forecast every window of each test scene with each predictor (module docstring).
 
-    predictors: row names: "cv", "cv-noise", "cv-sampled", "learned-tracks" (the learned model
-      on the annotated tracks, forecasters.learned_tracks), or a registered predictor's name
+    predictors: row names: "cv", "cv-noise", "cv-sampled", "cv-still" (ALIASES),
+      "learned-tracks" (the learned model on the annotated tracks, forecasters.learned_tracks),
+      or a registered predictor's name
       ("prior", "ekf", "social", "learned", ...), run through its Predictor interface.
     models: {scene: path} of the learned models; a scene without one gets a model trained here
       on its training files with `seed` (a temporary file).
@@ -118,7 +127,7 @@ def _check(predictors, scenes, limit) -> None:
         recordings.train_files(scene)
     for name in predictors:
         if name not in BASELINES and name != "learned-tracks":
-            predictor_class(ALIASES.get(name, name))
+            predictor_class(ALIASES.get(name, (name,))[0])
 
 
 def forecaster(name, train, model=None):
@@ -128,9 +137,10 @@ def forecaster(name, train, model=None):
         return BASELINES[name]
     if name == "learned-tracks":
         return forecasters.learned_tracks(model)
-    params = {"model": str(model)} if ALIASES.get(name, name) == "learned" else {}
+    predictor, params = ALIASES.get(name, (name, {}))
+    params = {"model": str(model)} if predictor == "learned" else params
     return forecasters.PredictorForecaster(
-        ALIASES.get(name, name), train.period, PRED, forecasters.obstacle_model(train), **params
+        predictor, train.period, PRED, forecasters.obstacle_model(train), **params
     )
 
 

@@ -52,8 +52,13 @@ MAY_IMPORT = {
     "dcmppi.bench.episodes": ("dcmppi.control", "dcmppi.tasks"),
     # the learned predictor's crowds: simulated ones recorded (episodes' obstacle motion and
     # seeds), its models trained and resolved from recipes, the predictors' forecasts of
-    # recorded ones
-    "dcmppi.bench.crowds": ("dcmppi.bench.episodes", "dcmppi.control.predictors", "dcmppi.tasks"),
+    # recorded ones (under a preset's settings too)
+    "dcmppi.bench.crowds": (
+        "dcmppi.bench.episodes",
+        "dcmppi.control.defaults",
+        "dcmppi.control.predictors",
+        "dcmppi.tasks",
+    ),
     # model recipes (crowds) stand for the learned predictor's model files
     "dcmppi.bench.experiments": ("dcmppi.bench.crowds", "dcmppi.bench.episodes", "dcmppi.tasks"),
     "dcmppi.bench.results": (

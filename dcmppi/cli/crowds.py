@@ -1,11 +1,14 @@
 """`dcmppi crowds check FILE...`: recorded crowds (four-column files frame id x y) as the replay
 task and the learned predictor read them: per file its frame step and period, people, positions,
-walking speeds, the replay episodes it yields, and the problems that refuse it (exit 2)."""
+walking speeds, the replay episodes it yields, and the problems that refuse it (exit 2).
+`dcmppi crowds spread [FILE...]`: the error of constant-velocity extrapolation by observed speed
+(dcmppi.bench.crowds.spread)."""
 
 import json
 
 import numpy as np
 
+from dcmppi.bench.crowds import spread
 from dcmppi.cli.common import READING_FLAGS, command, flag_names, flagged, reading
 from dcmppi.tasks.replay import recordings, scenes
 
@@ -38,10 +41,32 @@ def add_parser(subparsers, names: dict) -> None:
         "--folder", help=f"folder of the ETH/UCY files named (default: ${recordings.CROWDS_ENV})"
     )
     c.add_argument("--json", action="store_true", help="print one JSON object per file")
+    e = sub.add_parser(
+        "spread",
+        help="the velocity error of constant-velocity extrapolation by observed speed, at "
+        + ", ".join(f"{h:g}" for h in spread.HORIZONS)
+        + " s (what the cv predictor's cv_std and cv_std_still stand for)",
+    )
+    e.add_argument(
+        "files",
+        nargs="*",
+        metavar="FILE",
+        help="four-column files: paths, or names of the ETH/UCY files (default: all of them, "
+        "each at its own period)",
+    )
+    e.add_argument(
+        "--folder", help=f"folder of the ETH/UCY files named (default: ${recordings.CROWDS_ENV})"
+    )
+    e.add_argument("--json", action="store_true", help="print the rows as one JSON list")
 
 
 def run(args) -> int:
-    """Runs `dcmppi crowds check`; returns 2 when a file would be refused, else 0."""
+    """Runs `dcmppi crowds check` or `spread`; check returns 2 when a file would be refused."""
+    if args.action == "spread":
+        files = args.files or recordings.FILES
+        rows = spread.by_speed([recordings.load(f, args.folder) for f in files])
+        print(json.dumps(rows) if args.json else spread.table(rows))
+        return 0
     how = {"frame_step": args.frame_step, "max_speed": args.max_speed, "max_gap": args.max_gap}
     with flag_names(READING_FLAGS):
         found = [summary(f, args.folder, args.period, **how) for f in args.files]

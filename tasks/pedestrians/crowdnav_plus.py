@@ -91,7 +91,9 @@ class CrowdNavPlus(CrowdNav):
         goal_change_chance=0.0,
         **kwargs,
     ):
-        self.goal_change_chance = positive("goal_change_chance", goal_change_chance, allow_zero=True)
+        self.goal_change_chance = positive(
+            "goal_change_chance", goal_change_chance, allow_zero=True
+        )
         if self.goal_change_chance > 1:
             raise ValueError(
                 f"goal_change_chance must be a probability in [0, 1] (CrowdNav++'s: 0.5); got "

@@ -49,8 +49,11 @@ def test_cv_std_still_ramps_the_spread_from_standing_to_walking():
     np.testing.assert_allclose(p.futures, expected, rtol=0, atol=1e-14)
     same = make_predictor("cv", cv_std=0.4, **SHARED)  # None: cv_std for everyone
     q = same.predict(np.zeros(3), moving, None, np.random.default_rng(7), velocity=velocity)
-    np.testing.assert_allclose(q.futures[:, :, -1] - p.futures[:, :, -1],
-                               ((0.4 - sigma)[:, None, None] * noise) * 2.0, atol=1e-12)
+    np.testing.assert_allclose(
+        q.futures[:, :, -1] - p.futures[:, :, -1],
+        ((0.4 - sigma)[:, None, None] * noise) * 2.0,
+        atol=1e-12,
+    )
     with pytest.raises(ValueError, match="cv_std_still"):
         make_predictor("cv", cv_std_still=-0.1, **SHARED)
 

@@ -12,9 +12,11 @@ ask for them, its forecasts against the recordings.
                          through its Predictor interface
     evaluation.py        the standard ETH/UCY protocol, leave one scene out, every window:
                          `evaluate` and its `table` (`dcmppi predictor eval`)
+    spread.py            constant velocity's error in the recordings by observed speed
+                         (`dcmppi crowds spread`)
 
 The learned model itself (features, retrieval, fit) is dcmppi.control.predictors.learned; the
 ETH/UCY files are read by dcmppi.tasks.replay.recordings. May import dcmppi.bench.episodes (the
-obstacles' own motion, the environments' seeds), dcmppi.control's predictors and dcmppi.tasks;
-experiments use the recipes.
+obstacles' own motion, the environments' seeds), dcmppi.control's predictors and presets
+(dcmppi.control.defaults) and dcmppi.tasks; experiments use the recipes.
 """

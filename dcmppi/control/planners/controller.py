@@ -139,8 +139,7 @@ class Controller:
         self.preset = choice("preset", "paper" if preset is None else preset, tuple(PRESETS))
         self.prediction = prediction or self.default_prediction
         predictor = predictor_class(self.prediction)
-        predictor_params = {n: self.option(n, other.pop(n, None)) for n in predictor.own_params}
-        predictor_params = {n: v for n, v in predictor_params.items() if v is not None}
+        predictor_params = self._given(predictor.own_params, other)
         pace = {n: other.pop(n, None) for n in PACE_PARAMS}
         self.agent = make_agent(agent, **other)
         self.robot_radius = positive("robot_radius", robot_radius, allow_zero=True)
@@ -169,6 +168,11 @@ class Controller:
         self.timer = NO_TIMER
         self._grid = self.objective = self.rng = None
         self.reset(seed)
+
+    def _given(self, names, other):
+        """{name: value} of `names` given in `other` (popped) or set by the preset."""
+        values = {n: self.option(n, other.pop(n, None)) for n in names}
+        return {n: v for n, v in values.items() if v is not None}
 
     def _components(self, predictor, predictor_params, filter_window, filter_order, pace, shield):
         """The step's components from the checked parameters: the sampler, the plan's filter

@@ -64,9 +64,9 @@ class ConstantVelocity(SampledFutures):
 
     def __init__(self, *, cv_std=CV_STD, cv_std_still=None, **shared):
         self.cv_std = positive("cv_std", cv_std, allow_zero=True)
-        self.cv_std_still = (
-            None if cv_std_still is None else positive("cv_std_still", cv_std_still, allow_zero=True)
-        )
+        if cv_std_still is not None:
+            cv_std_still = positive("cv_std_still", cv_std_still, allow_zero=True)
+        self.cv_std_still = cv_std_still
         super().__init__(**shared)
 
     def velocities(self, moving, velocity, rng):

@@ -165,18 +165,18 @@ def test_the_square_rows_recipe_records_other_seeds_and_builds(cache):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["crowdnav", "crowdnav-visible"])
+@pytest.mark.parametrize("name", ["crowdnav", "crowdnav-visible", "crowdnav-plus"])
 def test_the_crowdnav_rows_record_humans_of_no_test_case(name):
     """The recorded episodes of the dc-learned row (drawn as `recording.record` draws them)
-    hold none of the humans of CrowdNav's test cases, environment i's case i."""
+    hold none of the humans of CrowdNav's (CrowdNav++'s) test cases, environment i's case i."""
     exp = load_experiment(name)
     env_params = {**exp.task_params, exp.env_param: 0}
     recipe = recipes.resolve(
         "dc-learned", exp.row("dc-learned").params["model"], exp, env_params, 0
     )
     record = recipe["record"]
-    assert record["task"] == "crowdnav" and exp.env_param not in record["task_params"]
-    case = tasks.task_class("crowdnav")(**exp.task_params, case=0)
+    assert record["task"] == exp.task and exp.env_param not in record["task_params"]
+    case = tasks.task_class(exp.task)(**exp.task_params, case=0)
 
     def humans(world):
         return tuple(np.round(world.moving[:, :2], 9).ravel())
@@ -188,7 +188,7 @@ def test_the_crowdnav_rows_record_humans_of_no_test_case(name):
     assert len(tested) == exp.episodes
     for e in range(record["episodes"]):
         seed = environment_seed(record["base_seed"], e)
-        env = tasks.load("crowdnav", task_kwargs={**record["task_params"], "random": seed})
+        env = tasks.load(exp.task, task_kwargs={**record["task_params"], "random": seed})
         env.reset()
         assert humans(env.task.world) not in tested, f"recorded episode {e} is a test case"
 
@@ -219,6 +219,21 @@ def test_record_writes_eth_ucy_files_that_train(tmp_path, capsys):
     model = tmp_path / "m.npz"
     assert cli.main(["predictor", "train", "--data", str(out), "--out", str(model)]) == 0
     assert learned.load(model).features.shape[0] == 14 * (26 - 19)
+
+
+def test_a_respawned_human_is_recorded_as_another_person():
+    """crowdnav_plus's humans respawn on arrival: each stretch between respawns is a track of
+    its own, whose steps stay within walking speed, and no frame is lost."""
+    made = recording.record("crowdnav_plus", {"n_humans": 4}, 1, 3, 0.4, 30.0)
+    assert len(made.tracks) > 4  # someone arrived and respawned within 30 s
+    steps = np.concatenate([np.hypot(*np.diff(t.xy, axis=0).T) for t in made.tracks])
+    assert steps.max() <= 1.0 * 0.4 + 1e-6  # v_pref 1 m/s, 0.4 s apart
+    # the 76 frames of each of the 4 rows, less the stretches of a single frame
+    assert sum(len(t.frames) for t in made.tracks) <= 4 * 76
+    assert sum(len(t.frames) for t in made.tracks) >= 4 * 76 - 2 * (len(made.tracks) - 4)
+    # a run cut where a row jumps, and only there
+    cut = recording._runs(np.ones(6, bool), np.array([0, 0, 0, 1, 0, 0], bool))
+    assert [list(r) for r in cut] == [[0, 1, 2], [3, 4, 5]]
 
 
 @pytest.mark.parametrize(

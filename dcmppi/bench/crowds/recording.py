@@ -14,7 +14,9 @@ Episode e is the task with `random` = SeedSequence([base_seed, e])'s first word
 (default: the task's time limit); a frame every `period` seconds (a whole number of control
 steps), the first at the reset. Each episode's frames follow the previous one's after a gap of
 one frame, and each person (a row of the moving obstacles while it holds someone) gets an id of
-their own, so no window or neighbour spans two episodes.
+their own, so no window or neighbour spans two episodes. A row that moves faster than the
+recordings' MAX_SPEED within one control step has respawned (crowdnav_plus's humans, the
+corridor's walkers): the people before and after are two.
 """
 
 import numpy as np
@@ -24,7 +26,7 @@ from dcmppi.bench.episodes import futures
 from dcmppi.bench.episodes.seeds import environment_seed
 from dcmppi.tasks.replay import recordings
 
-WITH_PEDESTRIANS = ("square", "corridor", "crowd", "crowdnav")  # named in errors: with walkers
+WITH_PEDESTRIANS = ("square", "corridor", "crowd", "crowdnav", "crowdnav_plus")  # named in errors: with walkers
 
 
 def record(
@@ -49,9 +51,10 @@ def record(
     for e in range(episodes):
         env = tasks.load(task, task_kwargs={**params, "random": environment_seed(base_seed, e)})
         env.reset()
-        xy, present = _frames(env, task, period, seconds)
+        xy, present, breaks = _frames(env, task, period, seconds)
         env.close()
-        tracks += _tracks(xy, present, frame0 + np.arange(len(xy)), period, len(tracks) + 1)
+        frames = frame0 + np.arange(len(xy))
+        tracks += _tracks(xy, present, breaks, frames, period, len(tracks) + 1)
         frame0 += len(xy) + 1
     tracks.sort(key=lambda t: (t.frames[0], t.id))
     return recordings.Recording(name, float(period), tuple(tracks))
@@ -76,9 +79,10 @@ def _checked(task, task_params, episodes, period, seconds) -> dict:
 
 
 def _frames(env, task, period, seconds):
-    """The centres (F, L, 2) and presence (F, L) of the moving obstacles of `env` (of `task`,
-    just reset) a frame every `period` s for `seconds` (None: the time limit), the first at the
-    reset; a ValueError where period is no whole number of control steps or nothing moves."""
+    """The centres (F, L, 2), presence (F, L) and respawns (F, L: between the frame before and
+    this one) of the moving obstacles of `env` (of `task`, just reset) a frame every `period` s
+    for `seconds` (None: the time limit), the first at the reset; a ValueError where period is
+    no whole number of control steps or nothing moves."""
     dt = env.control_timestep()
     stride = int(round(period / dt))
     if stride < 1 or abs(stride * dt - period) > 1e-9:
@@ -91,20 +95,28 @@ def _frames(env, task, period, seconds):
             f"record: task {task} has no moving obstacles to record; tasks with pedestrians: "
             + ", ".join(WITH_PEDESTRIANS)
         )
-    xy, present = [start], [futures.obstacle_presence(env)]
+    xy, present, breaks = [start], [futures.obstacle_presence(env)], [np.zeros(len(start), bool)]
     steps = int(round((seconds if seconds is not None else env.task.time_limit) / dt))
+    before, jumped = start, np.zeros(len(start), bool)
     for k, now in enumerate(futures.obstacle_tracks(env, steps), start=1):
+        now = np.asarray(now, dtype=float)
+        jumped |= np.hypot(*(now - before).T) > recordings.MAX_SPEED * dt
+        before = now
         if k % stride == 0:
-            xy.append(np.asarray(now, dtype=float))
+            xy.append(now)
             present.append(futures.obstacle_presence(env))
-    return np.stack(xy), np.stack(present)
+            breaks.append(jumped)
+            jumped = np.zeros(len(start), bool)
+    return np.stack(xy), np.stack(present), np.stack(breaks)
 
 
-def _tracks(xy, present, frames, period, first_id) -> list:
+def _tracks(xy, present, breaks, frames, period, first_id) -> list:
     """A recordings.Track of each run (`_runs`) of frames in which a row is present, row by
-    row, ids from first_id on: xy (F, L, 2), present (F, L) and frames (F,) the frame numbers
-    of an episode."""
-    runs = [(row, part) for row in range(xy.shape[1]) for part in _runs(present[:, row])]
+    row, ids from first_id on: xy (F, L, 2), present and breaks (F, L) (`_frames`) and frames
+    (F,) the frame numbers of an episode."""
+    runs = [
+        (row, part) for row in range(xy.shape[1]) for part in _runs(present[:, row], breaks[:, row])
+    ]
     return [
         recordings.Track(
             first_id + i,
@@ -116,7 +128,17 @@ def _tracks(xy, present, frames, period, first_id) -> list:
     ]
 
 
-def _runs(present) -> list:
-    """The index arrays of the runs of True in `present` (F,) of two frames or more."""
+def _runs(present, breaks) -> list:
+    """The index arrays of the runs of True in `present` (F,), cut before each frame where
+    `breaks` (F,), of two frames or more."""
+    runs = []
+    for a, b in zip(*_edges(present), strict=True):
+        cuts = [a, *(a + 1 + np.flatnonzero(breaks[a + 1 : b])), b]
+        runs += [np.arange(c, d) for c, d in zip(cuts[:-1], cuts[1:], strict=True) if d - c >= 2]
+    return runs
+
+
+def _edges(present) -> tuple:
+    """The starts and ends (exclusive) of the runs of True in `present` (F,)."""
     edges = np.flatnonzero(np.diff(np.r_[0, present.astype(int), 0]))
-    return [np.arange(a, b) for a, b in zip(edges[::2], edges[1::2], strict=True) if b - a >= 2]
+    return edges[::2], edges[1::2]

@@ -133,7 +133,12 @@ SHIELD_CASES = (
     Case("dc-cv+shield", "dc", "corridor", {**CV, **SHIELD}, "dc-cv", target_ratio=1.15),
     Case("dc-cv+smooth+shield", "dc", "corridor", {**CV, **SMOOTH, **SHIELD}, "dc-cv+smooth"),
 )
-CASES = BASE_CASES + SMOOTH_CASES + SHIELD_CASES + LEARNED_CASES
+# the crowds preset as the rows dc-recommended run it: at most 2 x dc-cv's step
+CROWDS = {"preset": "crowds", "perturbation": "correlated", "gamma": 0.1}
+CROWDS_CASES = (
+    Case("dc-recommended", "dc", "corridor", {**CV, **CROWDS}, "dc-cv", target_ratio=2.0),
+)
+CASES = BASE_CASES + SMOOTH_CASES + SHIELD_CASES + CROWDS_CASES + LEARNED_CASES
 
 # `--fingerprint`: every row of the table and the variants that take other code paths
 # (the learned rows aside: their plans depend on a trained model's bytes)
@@ -169,7 +174,9 @@ SHIELD_VARIANTS = SHIELD_CASES + tuple(
     Case(f"dc-cv {agent}+shield", "dc", "corridor", {"agent": agent, "prediction": "cv", **SHIELD})
     for agent in ("unicycle", "dubins")
 )
-FINGERPRINT_CASES = BASE_CASES + VARIANTS + PRESET_VARIANTS + PACE_VARIANTS + SHIELD_VARIANTS
+FINGERPRINT_CASES = (
+    BASE_CASES + VARIANTS + PRESET_VARIANTS + PACE_VARIANTS + SHIELD_VARIANTS + CROWDS_CASES
+)
 
 # `--profile`
 PROFILE_CASES = (

@@ -26,7 +26,13 @@ from dcmppi.bench.episodes import futures
 from dcmppi.bench.episodes.seeds import environment_seed
 from dcmppi.tasks.replay import recordings
 
-WITH_PEDESTRIANS = ("square", "corridor", "crowd", "crowdnav", "crowdnav_plus")  # named in errors: with walkers
+WITH_PEDESTRIANS = (
+    "square",
+    "corridor",
+    "crowd",
+    "crowdnav",
+    "crowdnav_plus",
+)  # named in errors: with walkers
 
 
 def record(

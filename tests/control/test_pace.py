@@ -111,6 +111,7 @@ def test_the_crowds_preset_is_smooth_with_polar_speed_a_weak_importance_term_and
     assert (ctrl.speed_mean, ctrl.gamma, ctrl.perturbation) == ("polar", 0.1, "correlated")
     assert ctrl.filter_window == 9 and ctrl.lambda_ == "auto" and ctrl.safety is not None
     assert ctrl.predictor.cv_std_still == 0.1 and ctrl.params["cv_std_still"] == 0.1
+    assert (ctrl.N, ctrl.predictor.cv_std, ctrl.predictor.N) == (30, 0.2, 30)
     off = dcmppi.make_controller(
         "dc", agent="holonomic", prediction="cv", preset="crowds", shield=False, cv_std_still=0.3
     )

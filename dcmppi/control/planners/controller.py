@@ -115,7 +115,7 @@ class Controller:
         robot_radius=defaults.ROBOT_RADIUS,
         dt=defaults.DT,
         K=defaults.K,
-        N=defaults.N,
+        N=None,
         lambda_=None,
         ess_target=None,
         Sigma=None,
@@ -145,7 +145,7 @@ class Controller:
         self.robot_radius = positive("robot_radius", robot_radius, allow_zero=True)
         self.dt = positive("dt", dt)
         self.K = positive("K", K, integer=True)
-        self.N = positive("N", N, integer=True)
+        self.N = positive("N", self.option("N", N, defaults.N), integer=True)
         self.lambda_ = temperature_param(self.option("lambda_", lambda_, defaults.LAMBDA))
         self.ess_target = share("ess_target", self.option("ess_target", ess_target, ESS_TARGET))
         self.Sigma = self.agent.variances(Sigma)
@@ -170,9 +170,10 @@ class Controller:
         self.reset(seed)
 
     def _given(self, names, other):
-        """{name: value} of `names` given in `other` (popped) or set by the preset."""
-        values = {n: self.option(n, other.pop(n, None)) for n in names}
-        return {n: v for n, v in values.items() if v is not None}
+        """{name: value} of `names` given in `other` (popped, None too) or set by the preset."""
+        preset = PRESETS[self.preset]
+        given = {n: other.pop(n) for n in names if n in other}
+        return {**{n: preset[n] for n in names if n in preset}, **given}
 
     def _components(self, predictor, predictor_params, filter_window, filter_order, pace, shield):
         """The step's components from the checked parameters: the sampler, the plan's filter

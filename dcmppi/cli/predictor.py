@@ -62,8 +62,9 @@ def _eval_parser(sub, folder: str) -> None:
         "--predictors",
         default=",".join(evaluation.ROWS),
         help="comma-separated rows: cv (one sample), cv-noise (25 deg heading noise), "
-        "cv-sampled (the cv predictor), cv-still (it with the crowds preset's spread for people "
-        "standing), learned-tracks (the learned model on the annotated "
+        "cv-sampled (the cv predictor), cv-still and cv-crowds (it with the crowds preset's "
+        "spread for people standing, and with both its spreads), "
+        "learned-tracks (the learned model on the annotated "
         "tracks) or any registered predictor (default: " + ",".join(evaluation.ROWS) + ")",
     )
     e.add_argument(

@@ -56,15 +56,14 @@ PRESETS = {
 # "crowds": the setting for a robot among people (docs/pedestrians.md, The crowds preset), chosen
 # on tuning environments across the MPPI-family rows: "smooth", plus an update at the samples'
 # mean speed (speed_mean "polar", holonomic robots), a weak importance term (gamma 0.1, which
-# otherwise favours samples slower than the warm start), the safety shield (its defaults), a 3 s
-# horizon and, for constant-velocity futures, the recordings' spread: 0.2 m/s for people
-# walking, 0.1 m/s for people standing (docs/crowds.md, Standing people).
+# otherwise favours samples slower than the warm start), the safety shield (its defaults) and,
+# for constant-velocity futures, the recordings' spread: 0.2 m/s for people walking, 0.1 m/s for
+# people standing (docs/crowds.md, Standing people).
 PRESETS["crowds"] = {
     **PRESETS["smooth"],
     "gamma": 0.1,
     "speed_mean": "polar",
     "shield": True,
-    "N": 30,
     "cv_std": 0.2,
     "cv_std_still": 0.1,
 }

@@ -130,13 +130,13 @@ def test_the_standard_protocol_reproduces_constant_velocitys_published_figures()
 @pytest.mark.slow
 def test_evaluate_trains_leave_one_scene_out_models_and_scores_every_row():
     result = evaluate(
-        ["cv-noise", "cv-sampled", "cv-still", "learned"], ["hotel"], crowds(), limit=60
+        ["cv-noise", "cv-sampled", "cv-crowds", "learned"], ["hotel"], crowds(), limit=60
     )
     rows = result["rows"]
     assert result["windows"] == {"hotel": 60}
-    assert set(rows) == {"cv-noise", "cv-sampled", "cv-still", "learned"}
-    # hotel's people who stand get the narrower spread: the same draws, other sample sets
-    assert rows["cv-still"]["hotel"]["nll"] != rows["cv-sampled"]["hotel"]["nll"]
+    assert set(rows) == {"cv-noise", "cv-sampled", "cv-crowds", "learned"}
+    # the preset's narrower spreads: the same draws, other sample sets
+    assert rows["cv-crowds"]["hotel"]["nll"] != rows["cv-sampled"]["hotel"]["nll"]
     assert (
         len(result["models"]["hotel"]["sha256"]) == 64 and result["models"]["hotel"]["path"] is None
     )

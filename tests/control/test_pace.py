@@ -97,11 +97,14 @@ def test_bad_options_are_named(params, message):
         dcmppi.make_controller("mppi", **params)
 
 
-def test_a_preset_sets_the_options_and_gamma(monkeypatch):
-    fast = {"speed_mean": "polar", "gamma": 0.1, "path_align": 1.0}
+def test_a_preset_sets_the_options_gamma_and_the_horizon(monkeypatch):
+    fast = {"speed_mean": "polar", "gamma": 0.1, "path_align": 1.0, "N": 30}
     monkeypatch.setitem(dcmppi.control.defaults.PRESETS, "fast", fast)
     ctrl = dcmppi.make_controller("dc", agent="holonomic", preset="fast")
     assert (ctrl.speed_mean, ctrl.gamma, ctrl.pace.path_align) == ("polar", 0.1, 1.0)
+    assert ctrl.N == ctrl.predictor.N == 30
+    ctrl.act(np.zeros(3), np.array([5.0, 0.0]), None, None, None)
+    assert ctrl.U.shape[0] == 30
     given = dcmppi.make_controller("dc", agent="holonomic", preset="fast", gamma=1.0)
     assert given.gamma == 1.0
 
@@ -111,7 +114,7 @@ def test_the_crowds_preset_is_smooth_with_polar_speed_a_weak_importance_term_and
     assert (ctrl.speed_mean, ctrl.gamma, ctrl.perturbation) == ("polar", 0.1, "correlated")
     assert ctrl.filter_window == 9 and ctrl.lambda_ == "auto" and ctrl.safety is not None
     assert ctrl.predictor.cv_std_still == 0.1 and ctrl.params["cv_std_still"] == 0.1
-    assert (ctrl.N, ctrl.predictor.cv_std, ctrl.predictor.N) == (30, 0.2, 30)
+    assert ctrl.predictor.cv_std == 0.2
     off = dcmppi.make_controller(
         "dc", agent="holonomic", prediction="cv", preset="crowds", shield=False, cv_std_still=0.3
     )

@@ -24,14 +24,16 @@ PERIOD = recordings.PERIOD
 BASELINES = {"cv": forecasters.constant_velocity, "cv-noise": forecasters.heading_noise}
 # rows that are the project's predictors under another name, (predictor, its parameters): `cv`
 # is the field's one-sample baseline, so the `cv` predictor (Gaussian velocity errors) is the row
-# cv-sampled; cv-still is it with the crowds preset's spread for people standing
+# cv-sampled; cv-still is it with the crowds preset's spread for people standing, cv-crowds with
+# both of its spreads
 ALIASES = {
     "cv-sampled": ("cv", {}),
     "cv-still": ("cv", {"cv_std_still": PRESETS["crowds"]["cv_std_still"]}),
+    "cv-crowds": ("cv", {n: PRESETS["crowds"][n] for n in ("cv_std", "cv_std_still")}),
 }
 ROWS = (
-    "cv", "cv-noise", "cv-sampled", "cv-still", "prior", "ekf", "social", "learned-tracks",
-    "learned",
+    "cv", "cv-noise", "cv-sampled", "cv-still", "cv-crowds", "prior", "ekf", "social",
+    "learned-tracks", "learned",
 )  # fmt: skip
 LEARNED = ("learned", "learned-tracks")  # the rows of a learned model
 COLUMNS = ("ade", "fde", "min_ade", "min_fde", "nll", "coverage")
@@ -57,7 +59,7 @@ def evaluate(
 ) -> dict:
     """Forecast every window of each test scene with each predictor (module docstring).
 
-    predictors: row names: "cv", "cv-noise", "cv-sampled", "cv-still" (ALIASES),
+    predictors: row names: "cv", "cv-noise", "cv-sampled", "cv-still", "cv-crowds" (ALIASES),
       "learned-tracks" (the learned model on the annotated tracks, forecasters.learned_tracks),
       or a registered predictor's name
       ("prior", "ekf", "social", "learned", ...), run through its Predictor interface.

@@ -54,6 +54,11 @@ def add_parser(subparsers, names: dict) -> None:
         help="four-column files: paths, or names of the ETH/UCY files (default: all of them, "
         "each at its own period)",
     )
+    reading(
+        e,
+        "seconds between annotated frames (default: each file's own: stated in a '# period' "
+        f"line, known, else {recordings.PERIOD})",
+    )
     e.add_argument(
         "--folder", help=f"folder of the ETH/UCY files named (default: ${recordings.CROWDS_ENV})"
     )
@@ -62,12 +67,16 @@ def add_parser(subparsers, names: dict) -> None:
 
 def run(args) -> int:
     """Runs `dcmppi crowds check` or `spread`; check returns 2 when a file would be refused."""
+    how = {"frame_step": args.frame_step, "max_speed": args.max_speed, "max_gap": args.max_gap}
     if args.action == "spread":
-        files = args.files or recordings.FILES
-        rows = spread.by_speed([recordings.load(f, args.folder) for f in files])
+        with flag_names(READING_FLAGS):
+            read = [
+                recordings.load(f, args.folder, args.period, **how)
+                for f in args.files or recordings.FILES
+            ]
+        rows = spread.by_speed(read)
         print(json.dumps(rows) if args.json else spread.table(rows))
         return 0
-    how = {"frame_step": args.frame_step, "max_speed": args.max_speed, "max_gap": args.max_gap}
     with flag_names(READING_FLAGS):
         found = [summary(f, args.folder, args.period, **how) for f in args.files]
     for entry in found:

@@ -14,8 +14,9 @@ restarts at rest; with a holonomic robot their end_goal_changing respawns whatev
 end_goal_change_chance). Goals changed before arrival (their random_goal_changing, chance 0.5
 in config.py; the configs of the released logs turn it off, as `goal_change_chance` 0 does
 here): every GOAL_CHANGE_PERIOD each human in turn, with that chance, gets a goal on the circle
-shifted by U(-v_pref / 2, v_pref / 2) per coordinate, drawn until at DISCOMFORT_DISTANCE from
-the others' positions and goals and the robot's start and goal (theirs: its position). They
+shifted by U(-v_pref / 2, v_pref / 2) per coordinate, drawn as crowdnav draws a start (at
+DISCOMFORT_DISTANCE from the others' positions and goals and the robot's start and goal, theirs:
+its position; here also clear of the obstacles). They
 walk by ORCA with SAFETY_SPACE added to every disc, at most v_pref,
 slowing within 1 m of the goal (walkers). The robot: start and goal uniform in
 [-ARENA_SIZE, ARENA_SIZE]^2, redrawn until ROBOT_SPACING apart, holonomic, 1 m/s, radius 0.3 m,
@@ -44,6 +45,7 @@ from .crowdnav import (
     CrowdNav,
     _apart,
     _check_obstacles,
+    _circle_human,
     _clear_of,
     obstacle_walls,
 )
@@ -174,8 +176,10 @@ class CrowdNavPlus(CrowdNav):
                 agents = [(self.world.start[:2], self.world.goal, self.robot_radius)]
                 agents += [(position[j], goal[j], radii[j]) for j in others]
                 v_pref = self._physics.obstacle_motion.pref_speed[i]
-                new = _goal(random, self.circle_radius, v_pref, radii[i], agents)
-                goal[i] = goal[i] if new is None else new
+                drawn = _circle_human(
+                    random, self.circle_radius, v_pref, radii[i], agents, self.obstacles
+                )
+                goal[i] = goal[i] if drawn is None else drawn[0]
         self._goals = goal.copy()
         return goal
 
@@ -277,19 +281,5 @@ def _start(random, circle_radius, radius, agents, obstacles):
         xy = circle_radius * np.array([np.cos(angle), np.sin(angle)]) + noise
         points = [(xy, a[0], a[2]) for a in agents] + [(xy, a[1], a[2]) for a in agents]
         if _apart(points, radius, DISCOMFORT_DISTANCE) and _clear_of(obstacles, radius, xy, -xy):
-            return xy
-    return None
-
-
-def _goal(random, circle_radius, v_pref, radius, agents):
-    """A goal (2,) on the circle shifted by U(-v_pref / 2, v_pref / 2) per coordinate, at
-    DISCOMFORT_DISTANCE from the agents' (position, goal, radius) positions and goals; None after
-    TRIES draws."""
-    for _ in range(TRIES):
-        angle = random.random_sample() * 2.0 * math.pi
-        noise = (random.random_sample() - 0.5) * v_pref, (random.random_sample() - 0.5) * v_pref
-        xy = circle_radius * np.array([np.cos(angle), np.sin(angle)]) + noise
-        points = [(xy, a[0], a[2]) for a in agents] + [(xy, a[1], a[2]) for a in agents]
-        if _apart(points, radius, DISCOMFORT_DISTANCE):
             return xy
     return None

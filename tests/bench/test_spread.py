@@ -46,3 +46,12 @@ def test_the_command_prints_the_rows(tmp_path, capsys):
     found = json.loads(capsys.readouterr().out)
     assert [r["low"] for r in found] == list(spread.SPEED_BINS)
     assert found[0]["samples"][0] > 0 and found[0]["spread"][0] == 0.0  # the one standing
+
+
+def test_a_file_it_cannot_read_is_one_line_naming_the_flag(tmp_path, capsys):
+    fast = tmp_path / "fast.txt"  # 100 m between frames 0.4 s apart: another period
+    fast.write_text("".join(f"{10 * k} 1 {100.0 * k} 0.0\n" for k in range(5)))
+    assert cli.main(["crowds", "spread", str(fast)]) == 2
+    error = capsys.readouterr().err.strip()
+    assert "above max_speed" not in error and "--period SECONDS" in error and "\n" not in error
+    assert cli.main(["crowds", "spread", str(fast), "--period", "100", "--json"]) == 0

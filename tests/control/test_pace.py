@@ -97,14 +97,11 @@ def test_bad_options_are_named(params, message):
         dcmppi.make_controller("mppi", **params)
 
 
-def test_a_preset_sets_the_options_gamma_and_the_horizon(monkeypatch):
-    fast = {"speed_mean": "polar", "gamma": 0.1, "path_align": 1.0, "N": 30}
+def test_a_preset_sets_the_options_and_gamma(monkeypatch):
+    fast = {"speed_mean": "polar", "gamma": 0.1, "path_align": 1.0}
     monkeypatch.setitem(dcmppi.control.defaults.PRESETS, "fast", fast)
     ctrl = dcmppi.make_controller("dc", agent="holonomic", preset="fast")
     assert (ctrl.speed_mean, ctrl.gamma, ctrl.pace.path_align) == ("polar", 0.1, 1.0)
-    assert ctrl.N == ctrl.predictor.N == 30
-    ctrl.act(np.zeros(3), np.array([5.0, 0.0]), None, None, None)
-    assert ctrl.U.shape[0] == 30
     given = dcmppi.make_controller("dc", agent="holonomic", preset="fast", gamma=1.0)
     assert given.gamma == 1.0
 

@@ -26,13 +26,8 @@ from dcmppi.bench.episodes import futures
 from dcmppi.bench.episodes.seeds import environment_seed
 from dcmppi.tasks.replay import recordings
 
-WITH_PEDESTRIANS = (
-    "square",
-    "corridor",
-    "crowd",
-    "crowdnav",
-    "crowdnav_plus",
-)  # named in errors: with walkers
+# named in errors: the tasks with walkers
+WITH_PEDESTRIANS = ("square", "corridor", "crowd", "crowdnav", "crowdnav_plus")
 
 
 def record(

@@ -115,7 +115,7 @@ class Controller:
         robot_radius=defaults.ROBOT_RADIUS,
         dt=defaults.DT,
         K=defaults.K,
-        N=None,
+        N=defaults.N,
         lambda_=None,
         ess_target=None,
         Sigma=None,
@@ -145,7 +145,7 @@ class Controller:
         self.robot_radius = positive("robot_radius", robot_radius, allow_zero=True)
         self.dt = positive("dt", dt)
         self.K = positive("K", K, integer=True)
-        self.N = positive("N", self.option("N", N, defaults.N), integer=True)
+        self.N = positive("N", N, integer=True)
         self.lambda_ = temperature_param(self.option("lambda_", lambda_, defaults.LAMBDA))
         self.ess_target = share("ess_target", self.option("ess_target", ess_target, ESS_TARGET))
         self.Sigma = self.agent.variances(Sigma)

@@ -65,6 +65,30 @@ def test_every_agent_turns_away_from_a_walker_ahead(name):
     assert (v[1] < 0) if agent.holonomic else (omega < 0)
 
 
+def sidestep(agent, turn_at, steps=30):
+    """A holonomic plan (steps, nu): full speed ahead, then from step `turn_at` full speed to
+    the right."""
+    plan = np.repeat(forward(agent)[None], steps, axis=0)
+    plan[turn_at:] = agent.command(np.array([0.0, -agent.max_speed]), 0.0)
+    return plan
+
+
+def test_a_plan_that_curves_clear_passes_its_command_unchanged():
+    agent = make_agent("holonomic", v_max=1.0)
+    moving, velocity = head_on(2.5, offset=0.0, speed=0.5)  # at constant velocity: a collision
+    plan = sidestep(agent, turn_at=1)  # one step ahead, then out of the walker's way
+    u = plan[0]
+    on, off = Shield(agent, RADIUS, DT), Shield(agent, RADIUS, DT, plan=False)
+    assert off(np.zeros(3), u, NO_STATIC, moving, velocity, None, plan)[1]  # the command alone
+    out, changed = on(np.zeros(3), u, NO_STATIC, moving, velocity, None, plan)
+    assert out is u and not changed
+    late = sidestep(agent, turn_at=12)  # turns too late to keep clear: filtered as before
+    out, changed = on(np.zeros(3), u, NO_STATIC, moving, velocity, None, late)
+    assert changed and np.array_equal(out, off(np.zeros(3), u, NO_STATIC, moving, velocity)[0])
+    bounds = np.array([-5.0, -0.5, 5.0, 5.0])  # the right edge 0.5 m away: the plan leaves it
+    assert on(np.zeros(3), u, NO_STATIC, moving, velocity, bounds, plan)[1]
+
+
 def test_static_cylinders_and_the_map_edges_are_kept_clear():
     agent = make_agent("holonomic", v_max=1.0)
     shield = Shield(agent, RADIUS, DT, time_horizon=1.0, margin=0.0)
@@ -100,7 +124,7 @@ def test_every_planner_takes_the_shield(controller, agent):
     ctrl = make_controller(controller, shield={"time_horizon": 1.0}, **params)
     ctrl.act(*args, moving_velocity=velocity)
     assert ctrl.diagnostics.shielded is True
-    assert ctrl.params["shield"] == {"time_horizon": 1.0, "margin": 0.15}
+    assert ctrl.params["shield"] == {"time_horizon": 1.0, "margin": 0.15, "plan": True}
     off = make_controller(controller, **params)
     off.act(*args, moving_velocity=velocity)
     assert off.safety is None and off.diagnostics.shielded is None and off.shield is None
@@ -110,7 +134,10 @@ def test_a_bad_shield_is_one_clear_error():
     assert shield_param(False) is None and shield_param(True) == {
         "time_horizon": 1.5,
         "margin": 0.15,
+        "plan": True,
     }
+    with pytest.raises(ValueError, match="shield plan must be true or false"):
+        shield_param({"plan": "yes"})
     with pytest.raises(ValueError, match="shield must be true, false or a table of time_horizon"):
         shield_param({"tau": 1.0})
     with pytest.raises(ValueError, match="shield time_horizon must be > 0"):

@@ -1,10 +1,14 @@
 """The safety shield: a planner's command filtered against the obstacles observed now.
 
-    safety = Shield(agent, robot_radius, dt, time_horizon=1.5, margin=0.15)
-    u, changed = safety(state, u, static, moving, moving_velocity, bounds)
+    safety = Shield(agent, robot_radius, dt, time_horizon=1.5, margin=0.15, plan=True)
+    u, changed = safety(state, u, static, moving, moving_velocity, bounds, plan)
 
-The command's world-frame velocity v (agent.world_velocity) moves to the nearest velocity
-outside every obstacle's velocity obstacle truncated at `time_horizon`: ORCA's half-planes
+With `plan` (the default) and a planner's plan, a command that the plan's later controls keep
+clear of every obstacle for `time_horizon`, at the obstacles' velocities and with the radii and
+edges widened by `margin`, comes back unchanged (the same array): the planner may pass in front
+of a person on a curve that a constant velocity would not clear. Otherwise the command's
+world-frame velocity v (agent.world_velocity) moves to the nearest velocity outside every
+obstacle's velocity obstacle truncated at `time_horizon`: ORCA's half-planes
 (van den Berg et al. 2011, linearised at v) with the robot taking all of the responsibility
 (people may not see it), the moving obstacles at their latest velocities, the static cylinders
 at rest, the map's edges as lines, each radius widened by `margin`; the nearest velocity within
@@ -34,13 +38,13 @@ from dcmppi.control.validation import floats, positive
 # chosen on square-orca's and corridor-visible's tuning environments (base seed + 7919)
 TIME_HORIZON = 1.5  # [s] how long the command must stay clear at the obstacles' velocities
 MARGIN = 0.15  # [m] added to every radius sum
-PARAMS = {"time_horizon": TIME_HORIZON, "margin": MARGIN}
+PARAMS = {"time_horizon": TIME_HORIZON, "margin": MARGIN, "plan": True}
 EPSILON = 1e-9  # parallel lines (RVO2's RVO_EPSILON, for metres and seconds)
 
 
 def shield_param(value):
     """The `shield` option: None or False (off: None), True (the defaults) or a dict of
-    time_horizon [s] and margin [m]; returns None or the full, checked dict."""
+    time_horizon [s], margin [m] and plan (bool); returns None or the full, checked dict."""
     if value is None or value is False:
         return None
     if value is True:
@@ -51,9 +55,12 @@ def shield_param(value):
             f"(e.g. shield = {{ time_horizon = 1.5 }}); got {value!r}"
         )
     full = {**PARAMS, **value}
+    if not isinstance(full["plan"], bool):
+        raise ValueError(f"shield plan must be true or false; got {full['plan']!r}")
     return {
         "time_horizon": positive("shield time_horizon", full["time_horizon"]),
         "margin": positive("shield margin", full["margin"], allow_zero=True),
+        "plan": full["plan"],
     }
 
 
@@ -68,19 +75,25 @@ class Shield:
     """The filter of one robot (see the module docstring).
 
     Args: agent (an Agent), robot_radius [m], dt: the control period [s] (an overlap is to be
-    left within it), time_horizon [s], margin [m].
+    left within it), time_horizon [s], margin [m], plan: whether a plan that keeps clear
+    passes its command unchanged.
     """
 
-    def __init__(self, agent, robot_radius, dt, time_horizon=TIME_HORIZON, margin=MARGIN):
+    def __init__(self, agent, robot_radius, dt, time_horizon=TIME_HORIZON, margin=MARGIN,
+                 plan=True):  # fmt: skip
         self.agent, self.dt, self.tau, self.margin = agent, dt, time_horizon, margin
-        self.radius = robot_radius + margin
+        self.radius, self.use_plan = robot_radius + margin, plan
 
-    def __call__(self, state, u, static, moving, velocity, bounds=None):
+    def __call__(self, state, u, static, moving, velocity, bounds=None, plan=None):
         """The command u (nu,) filtered: (u', changed), u' the same array when unchanged.
 
         state (3,); static (M, 3) x, y, radius; moving (L, 4) x, y, heading, radius and their
-        world-frame velocities (L, 2), finite; bounds (4,) xmin, ymin, xmax, ymax or None.
+        world-frame velocities (L, 2), finite; bounds (4,) xmin, ymin, xmax, ymax or None;
+        plan (N, nu) the planner's controls from now (its first row replaced by u) or None.
         """
+        if self.use_plan and plan is not None:
+            if self._keeps_clear(state, u, plan, static, moving, velocity, bounds):
+                return u, False
         heading = float(state[2])
         v, omega = self.agent.world_velocity(heading, u)
         v = (float(v[0]), float(v[1]))
@@ -102,6 +115,26 @@ class Shield:
         chord = (math.cos(half), math.sin(half))
         speed = _along(lines, chord, math.hypot(*forward), self.agent.max_speed)
         return bound(self.agent, self.agent.command((speed, 0.0), turn)), True
+
+    def _keeps_clear(self, state, u, plan, static, moving, velocity, bounds):
+        """Whether u, then plan[1:], keeps the robot's centre outside every widened disc (static
+        ones at rest, moving ones at their velocities) and within the widened edges at each
+        control step up to time_horizon."""
+        steps = max(1, math.ceil(self.tau / self.dt - 1e-9))
+        controls = np.vstack([u, np.asarray(plan, dtype=float)[1:]])  # the last one held:
+        controls = controls[np.minimum(np.arange(steps), len(controls) - 1)]
+        path = self.agent.rollout_one(state, controls, self.dt)[1:, :2]  # (steps, 2)
+        t = self.dt * np.arange(1, steps + 1)[:, None, None]  # (steps, 1, 1)
+        discs = np.vstack([static, moving[:, [0, 1, 3]]])
+        drift = np.vstack([np.zeros((len(static), 2)), velocity])
+        centres = discs[None, :, :2] + t * drift[None]  # (steps, n, 2)
+        gaps = np.hypot(*(path[:, None] - centres).transpose(2, 0, 1)) - discs[:, 2] - self.radius
+        if np.any(gaps < 0.0):
+            return False
+        if bounds is None:
+            return True
+        low, high = bounds[:2] + self.margin, bounds[2:] - self.margin
+        return bool(np.all(path >= low) and np.all(path <= high))
 
     def _discs(self, state, v, discs, velocity):
         """ORCA's lines (point, direction) of discs (n, 3) x, y, radius moving at velocity
@@ -274,10 +307,12 @@ def shielded(safety, diagnostics, state, u, static, moving, velocity, obstacle_m
     command (`shielded`). The arguments are Controller.act's: static
     (M, 3) or None, moving (L, 4) without padding rows and their observed velocities (L, 2)
     (nan: not observed; None), filled as the classical planners fill them
-    (velocities.moving_obstacle_velocity); bounds (4,) or None."""
+    (velocities.moving_obstacle_velocity); bounds (4,) or None. The planner's plan is
+    `diagnostics.plan` where it has one."""
     moving = np.zeros((0, 4)) if moving is None else moving
     velocity = moving_obstacle_velocity(moving, velocity, obstacle_model)
     static = valid_cylinders(static, "static")
     bounds = None if bounds is None else floats("bounds", bounds).reshape(4)
-    u, diagnostics.shielded = safety(state, u, static, moving, velocity, bounds)
+    plan = getattr(diagnostics, "plan", None)
+    u, diagnostics.shielded = safety(state, u, static, moving, velocity, bounds, plan)
     return u

@@ -66,4 +66,6 @@ PRESETS["crowds"] = {
     "shield": True,
     "cv_std": 0.2,
     "cv_std_still": 0.1,
+    "beta": 50.0,
+    "way_weight": 1.0,
 }

@@ -15,7 +15,14 @@ adds, per rollout from p_0 (the step's position) to the goal g,
                                                           path to the goal)
     speed_weight * sum_i (v_max - |p_{i+1} - p_i| / dt)  (speed below the top speed)
 
-in the cost's units (the goal term: 1 per metre per state); a weight 0 turns a term off.
+in the cost's units (the goal term: 1 per metre per state); a weight 0 turns a term off. With
+predicted futures, Pace's way_weight adds a term for standing in a person's way (CrowdNav++'s
+intrusion: the robot now where a person will be within seconds):
+
+    way_weight * sum_i sum_s sum_j 1[|p_i - m_j(t_i + s)| <= d_j],  s = WAY_STEP .. WAY_HORIZON
+
+with m_j the mean of obstacle j's sampled futures (held at its last step); the planner counts
+it in the moving-obstacle term.
 
 The static map is the planner's OccupancyGrid of the static cylinders (and the map bounds). The
 tracks o_j, their distances d_j and the weight w come from the step's Prediction (a predictor's:
@@ -31,6 +38,7 @@ from dcmppi.control.predictors import Prediction
 from dcmppi.control.validation import positive
 
 NO_TRACKS = TrackIndex(np.zeros((0, 1, 2)), np.zeros(0))
+WAY_STEP, WAY_HORIZON = 0.2, 1.2  # [s] the instants ahead of a person that are their way
 
 
 class Objective:
@@ -61,6 +69,16 @@ class Objective:
             if len(prediction.tracks)
             else NO_TRACKS
         )
+        self.way = NO_TRACKS
+        if pace is not None and pace.way_weight and prediction.futures is not None:
+            self.way = way_tracks(prediction, pace.dt)
+
+    def _moving(self, x, y, cols):
+        """The moving-obstacle term (j1 - j0,) of the rollouts x, y (N + 1, R) in cols."""
+        term = self.weight * self.tracks.count(x, y, cols)
+        if not self.way.empty:
+            term = term + self.pace.way_weight * self.way.count(x, y, cols)
+        return term
 
     def __call__(self, states, moving=False, cols=None):
         """J (R,) of the rollouts states (3, N + 1, R) (x, y, theta; only x, y are used); with
@@ -75,18 +93,31 @@ class Objective:
             J += self.pace(x, y, self.start, self.goal, cols)
         term = None
         if not self.tracks.empty:
-            term = self.weight * self.tracks.count(x, y, cols)
+            term = self._moving(x, y, cols)
             J += term
         return (J, term) if moving else J
 
     def moving(self, states):
-        """The moving-obstacle term (R,) alone: weight x the collisions with the tracks."""
+        """The moving-obstacle term (R,) alone: weight x the collisions with the tracks (plus
+        the way term)."""
         if self.tracks.empty:
             return np.zeros(states.shape[2])
-        return self.weight * self.tracks.count(states[0], states[1])
+        return self._moving(states[0], states[1], None)
 
 
-PACE_PARAMS = ("cost_to_go", "path_align", "speed_weight")
+def way_tracks(prediction, dt):
+    """TrackIndex of the obstacles' ways: the mean of each one's futures (L, F, N + 1, 2) at
+    t_i + s for every s = WAY_STEP .. WAY_HORIZON (rounded to steps of dt), against state i."""
+    futures = np.asarray(prediction.futures, dtype=float)
+    mean = futures.mean(axis=1)  # (L, N + 1, 2)
+    steps = np.arange(mean.shape[1])
+    shifts = [round(k * WAY_STEP / dt) for k in range(1, round(WAY_HORIZON / WAY_STEP) + 1)]
+    tracks = np.concatenate([mean[:, np.minimum(steps + s, steps[-1])] for s in shifts])
+    distance = np.asarray(prediction.distance, dtype=float).reshape(futures.shape[:2])[:, 0]
+    return TrackIndex(tracks, np.tile(distance, len(shifts)))
+
+
+PACE_PARAMS = ("cost_to_go", "path_align", "speed_weight", "way_weight")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -98,6 +129,7 @@ class Pace:
     cost_to_go: float = 0.0
     path_align: float = 0.0
     speed_weight: float = 0.0
+    way_weight: float = 0.0
     v_max: float = 1.0
     dt: float = 0.1
 
@@ -113,7 +145,7 @@ class Pace:
     @property
     def on(self):
         """Whether any term has a weight."""
-        return bool(self.cost_to_go or self.path_align or self.speed_weight)
+        return bool(self.cost_to_go or self.path_align or self.speed_weight or self.way_weight)
 
     def __call__(self, x, y, start, goal, cols=None):
         """The terms' sum (R,) for the rollouts x, y (N + 1, R) from the step's position

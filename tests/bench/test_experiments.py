@@ -9,6 +9,7 @@ from dcmppi.bench.experiments import (
     experiment_names,
     load_experiment,
 )
+from dcmppi.control.defaults import PRESETS
 
 MINIMAL = 'task = "blocked"\nepisodes = 2\n[[rows]]\ncontroller = "mppi"\n'
 
@@ -27,8 +28,11 @@ def own(exp):
 def test_every_crowd_experiment_ends_with_one_recommended_row():
     rows = [load_experiment(name).rows[-1] for name in CROWDS]
     assert {(r.label, r.controller) for r in rows} == {("dc-recommended", "dc")}
-    spec = {"prediction": "cv", "preset": "crowds", "perturbation": "correlated", "gamma": 0.1}
+    spec = {"prediction": "cv", "preset": "crowds", "perturbation": "correlated", "gamma": 0.1,
+            "beta": 50.0}  # fmt: skip
     assert all(r.params == spec for r in rows)
+    crowds = PRESETS["crowds"]  # what a row restates is the preset's own value
+    assert all(crowds[n] == v for n, v in spec.items() if n in crowds)
     others = set(experiment_names()) - set(CROWDS)
     assert not any("dc-recommended" in load_experiment(name).labels for name in others)
 

@@ -1,12 +1,15 @@
 """The options for time to the goal: the objective's Pace terms (cost_to_go, path_align,
-speed_weight) and the update's speed_mean; off by default."""
+speed_weight) and the update's speed_mean, and the term for standing in a person's way
+(way_weight); off by default."""
 
 import numpy as np
 import pytest
 
 import dcmppi
-from dcmppi.control.objective import Pace
+from dcmppi.control.kernels.costs import OccupancyGrid
+from dcmppi.control.objective import Objective, Pace
 from dcmppi.control.planners.mppi import polar_means
+from dcmppi.control.predictors import Prediction
 
 GOAL = np.array([30.0, 0.0])
 SMOOTH = {"agent": "holonomic", "preset": "smooth", "perturbation": "correlated"}
@@ -37,6 +40,38 @@ def test_terms_by_hand():
     assert not Pace.of(2.0, 0.5).on and Pace.of(2.0, 0.5, speed_weight=0.1).on
 
 
+def walker_ahead(speed=1.0, P=4, N=20, dt=0.1):
+    """A Prediction of one walker of radius 0.3 from (2, 0) along +y at `speed`, P futures (two
+    0.1 m/s slower, two faster: their mean is the walker's true path), N steps of dt."""
+    t = dt * np.arange(N + 1)
+    v = speed + np.array([-0.1, -0.1, 0.1, 0.1])[:P]
+    futures = np.zeros((1, P, N + 1, 2))
+    futures[0, :, :, 0], futures[0, :, :, 1] = 2.0, v[:, None] * t
+    return Prediction(futures.reshape(P, N + 1, 2), np.full(P, 0.6), 100.0 / P, futures)
+
+
+def test_the_way_term_counts_states_where_a_person_is_about_to_be():
+    prediction, grid = walker_ahead(), OccupancyGrid(None, 0.3)
+    goal = np.array([10.0, 0.0])
+    # three robots held still: where the walker will be in 0.6 s, where it was, and far off
+    states = np.zeros((3, 21, 3))
+    states[0, :, 0], states[0, :, 1] = 2.0, 0.1 * np.arange(21) + 0.6  # 0.6 s ahead of it
+    states[1, :, 0], states[1, :, 1] = 2.0, 0.1 * np.arange(21) - 1.0  # 1 s behind it
+    states[2, :, 0] = 8.0
+    states = states.transpose(2, 1, 0)  # (3, N + 1, R)
+    pace = Pace.of(1.5, 0.1, way_weight=2.0)
+    off = Objective(goal, grid, 1e3, prediction)
+    on = Objective(goal, grid, 1e3, prediction, pace, np.zeros(2))
+    extra = on.moving(states) - off.moving(states)
+    # ahead: the way's instants 0.2 .. 1.2 s whose mean position lies within 0.6 m (s <= 1.2,
+    # |0.6 - s| <= 0.6: all six, minus where the futures end), weight 2 each; behind: none
+    assert extra[0] > 2.0 * 21 and extra[1] == 0.0 and extra[2] == 0.0
+    J_off, J_on = off(states), on(states)
+    np.testing.assert_allclose(J_on - J_off, extra)
+    frozen = Prediction(prediction.tracks, prediction.distance, prediction.weight)  # no futures
+    assert Objective(goal, grid, 1e3, frozen, pace, np.zeros(2)).way.empty
+
+
 def test_polar_means_reach_the_top_speed():
     # samples at the top speed 45 degrees either side of +x, equal weights: the vector mean's
     # speed is cos 45 degrees of it, the polar mean's the top speed, along +x
@@ -55,12 +90,15 @@ def test_polar_means_reach_the_top_speed():
 
 @pytest.mark.parametrize("controller", ["mppi", "dc", "tube"])
 def test_off_is_the_default(controller):
-    off = {"cost_to_go": 0.0, "path_align": 0, "speed_weight": 0.0, "speed_mean": "vector"}
+    off = {"cost_to_go": 0.0, "path_align": 0, "speed_weight": 0.0, "way_weight": 0.0,
+           "speed_mean": "vector"}  # fmt: skip
     default = drive(10, controller)
     np.testing.assert_array_equal(drive(10, controller, **off), default)
     ctrl = dcmppi.make_controller(controller, **SMOOTH)
     assert ctrl.pace == Pace.of(ctrl.agent.max_speed, ctrl.dt) and ctrl.speed_mean == "vector"
-    assert {"cost_to_go", "path_align", "speed_weight", "speed_mean"} <= set(ctrl.params)
+    assert {"cost_to_go", "path_align", "speed_weight", "way_weight", "speed_mean"} <= set(
+        ctrl.params
+    )
 
 
 def speed(path):
@@ -111,7 +149,7 @@ def test_the_crowds_preset_is_smooth_with_polar_speed_a_weak_importance_term_and
     assert (ctrl.speed_mean, ctrl.gamma, ctrl.perturbation) == ("polar", 0.1, "correlated")
     assert ctrl.filter_window == 9 and ctrl.lambda_ == "auto" and ctrl.safety is not None
     assert ctrl.predictor.cv_std_still == 0.1 and ctrl.params["cv_std_still"] == 0.1
-    assert ctrl.predictor.cv_std == 0.2
+    assert ctrl.predictor.cv_std == 0.2 and (ctrl.beta, ctrl.way_weight) == (50.0, 1.0)
     off = dcmppi.make_controller(
         "dc", agent="holonomic", prediction="cv", preset="crowds", shield=False, cv_std_still=0.3
     )

@@ -121,7 +121,7 @@ class Controller:
         Sigma=None,
         gamma=None,
         alpha=defaults.ALPHA,
-        beta=defaults.BETA,
+        beta=None,
         P=defaults.P,
         seed=None,
         perturbation=None,
@@ -151,7 +151,7 @@ class Controller:
         self.Sigma = self.agent.variances(Sigma)
         self.gamma = positive("gamma", self.option("gamma", gamma, defaults.GAMMA), allow_zero=True)
         self.alpha = positive("alpha", alpha, allow_zero=True)
-        self.beta = positive("beta", beta, allow_zero=True)
+        self.beta = positive("beta", self.option("beta", beta, defaults.BETA), allow_zero=True)
         self.P = positive("P", P, integer=True)
         perturbation = self.option("perturbation", perturbation)
         self.perturbation = perturbation_param(perturbation, self.agent)
@@ -194,7 +194,7 @@ class Controller:
         self.filter_window, self.filter_order = self.plan_filter.window, self.plan_filter.order
         weights = {n: self.option(n, v, 0.0) for n, v in pace.items()}
         self.pace = Pace.of(self.agent.max_speed, self.dt, **weights)
-        self.cost_to_go, self.path_align, self.speed_weight = (
+        self.cost_to_go, self.path_align, self.speed_weight, self.way_weight = (
             getattr(self.pace, n) for n in PACE_PARAMS
         )
         self.predictor = predictor(

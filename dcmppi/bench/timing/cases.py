@@ -134,7 +134,7 @@ SHIELD_CASES = (
     Case("dc-cv+smooth+shield", "dc", "corridor", {**CV, **SMOOTH, **SHIELD}, "dc-cv+smooth"),
 )
 # the crowds preset as the rows dc-recommended run it: at most 2 x dc-cv's step
-CROWDS = {"preset": "crowds", "perturbation": "correlated", "gamma": 0.1}
+CROWDS = {"preset": "crowds", "perturbation": "correlated", "gamma": 0.1, "beta": 50.0}
 CROWDS_CASES = (
     Case("dc-recommended", "dc", "corridor", {**CV, **CROWDS}, "dc-cv", target_ratio=2.0),
 )

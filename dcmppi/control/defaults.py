@@ -56,9 +56,11 @@ PRESETS = {
 # "crowds": the setting for a robot among people (docs/pedestrians.md, The crowds preset), chosen
 # on tuning environments across the MPPI-family rows: "smooth", plus an update at the samples'
 # mean speed (speed_mean "polar", holonomic robots), a weak importance term (gamma 0.1, which
-# otherwise favours samples slower than the warm start), the safety shield (its defaults) and,
-# for constant-velocity futures, the recordings' spread: 0.2 m/s for people walking, 0.1 m/s for
-# people standing (docs/crowds.md, Standing people).
+# otherwise favours samples slower than the warm start), half the default beta (a shorter detour
+# round predicted people) with a cost for standing in their way (way_weight 1, which keeps them
+# from being cut off), the safety shield (its defaults) and, for constant-velocity futures, the
+# recordings' spread: 0.2 m/s for people walking, 0.1 m/s for people standing (docs/crowds.md,
+# Standing people).
 PRESETS["crowds"] = {
     **PRESETS["smooth"],
     "gamma": 0.1,

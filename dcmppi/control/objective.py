@@ -107,13 +107,22 @@ class Objective:
 
 def way_tracks(prediction, dt):
     """TrackIndex of the obstacles' ways: the mean of each one's futures (L, F, N + 1, 2) at
-    t_i + s for every s = WAY_STEP .. WAY_HORIZON (rounded to steps of dt), against state i."""
+    t_i + s for every s = WAY_STEP .. WAY_HORIZON (rounded to distinct steps of dt, at least
+    one), against state i. The futures must be the tracks grouped by obstacle (Prediction)."""
     futures = np.asarray(prediction.futures, dtype=float)
+    distance = np.asarray(prediction.distance, dtype=float)
+    if futures.ndim != 4 or futures.shape[0] * futures.shape[1] != len(distance):
+        raise ValueError(
+            f"way_weight needs a prediction whose futures (L, F, N + 1, 2) are its tracks grouped "
+            f"by obstacle; got futures {futures.shape} for {len(distance)} tracks: give them so, "
+            "or set way_weight = 0"
+        )
     mean = futures.mean(axis=1)  # (L, N + 1, 2)
     steps = np.arange(mean.shape[1])
-    shifts = [round(k * WAY_STEP / dt) for k in range(1, round(WAY_HORIZON / WAY_STEP) + 1)]
+    count = round(WAY_HORIZON / WAY_STEP)
+    shifts = sorted({max(1, round(k * WAY_STEP / dt)) for k in range(1, count + 1)})
     tracks = np.concatenate([mean[:, np.minimum(steps + s, steps[-1])] for s in shifts])
-    distance = np.asarray(prediction.distance, dtype=float).reshape(futures.shape[:2])[:, 0]
+    distance = distance.reshape(futures.shape[:2])[:, 0]
     return TrackIndex(tracks, np.tile(distance, len(shifts)))
 
 
@@ -148,8 +157,9 @@ class Pace:
         return bool(self.cost_to_go or self.path_align or self.speed_weight or self.way_weight)
 
     def __call__(self, x, y, start, goal, cols=None):
-        """The terms' sum (R,) for the rollouts x, y (N + 1, R) from the step's position
-        start (2,) to goal (2,); only the columns cols = (j0, j1) when given."""
+        """The time terms' sum (R,) for the rollouts x, y (N + 1, R) from the step's position
+        start (2,) to goal (2,); only the columns cols = (j0, j1) when given (the way term is
+        the Objective's, in its moving-obstacle term)."""
         if cols is not None:
             x, y = x[:, cols[0] : cols[1]], y[:, cols[0] : cols[1]]
         gx, gy = float(goal[0]), float(goal[1])

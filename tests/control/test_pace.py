@@ -53,9 +53,9 @@ def walker_ahead(speed=1.0, P=4, N=20, dt=0.1):
 def test_the_way_term_counts_states_where_a_person_is_about_to_be():
     prediction, grid = walker_ahead(), OccupancyGrid(None, 0.3)
     goal = np.array([10.0, 0.0])
-    # three robots held still: where the walker will be in 0.6 s, where it was, and far off
+    # three robots: 0.45 s ahead of the walker on its line, 1 s behind it, and far off
     states = np.zeros((3, 21, 3))
-    states[0, :, 0], states[0, :, 1] = 2.0, 0.1 * np.arange(21) + 0.6  # 0.6 s ahead of it
+    states[0, :, 0], states[0, :, 1] = 2.0, 0.1 * np.arange(21) + 0.45  # 0.45 s ahead of it
     states[1, :, 0], states[1, :, 1] = 2.0, 0.1 * np.arange(21) - 1.0  # 1 s behind it
     states[2, :, 0] = 8.0
     states = states.transpose(2, 1, 0)  # (3, N + 1, R)
@@ -63,13 +63,19 @@ def test_the_way_term_counts_states_where_a_person_is_about_to_be():
     off = Objective(goal, grid, 1e3, prediction)
     on = Objective(goal, grid, 1e3, prediction, pace, np.zeros(2))
     extra = on.moving(states) - off.moving(states)
-    # ahead: the way's instants 0.2 .. 1.2 s whose mean position lies within 0.6 m (s <= 1.2,
-    # |0.6 - s| <= 0.6: all six, minus where the futures end), weight 2 each; behind: none
-    assert extra[0] > 2.0 * 21 and extra[1] == 0.0 and extra[2] == 0.0
+    # ahead: each state against the walker's mean position 0.2, 0.4 .. 1.2 s later (held at the
+    # futures' end), within 0.6 m: weight 2 per instant; behind and far off: none
+    walker_y = 0.1 * np.minimum(np.arange(21)[:, None] + np.arange(2, 13, 2), 20)
+    within = np.abs(states[1, :, 0][:, None] - walker_y) <= 0.6 + 1e-9
+    assert extra[0] == 2.0 * within.sum() > 2.0 * 21
+    assert extra[1] == 0.0 and extra[2] == 0.0
     J_off, J_on = off(states), on(states)
     np.testing.assert_allclose(J_on - J_off, extra)
     frozen = Prediction(prediction.tracks, prediction.distance, prediction.weight)  # no futures
     assert Objective(goal, grid, 1e3, frozen, pace, np.zeros(2)).way.empty
+    shown = Prediction(prediction.tracks[:1], prediction.distance[:1], 100.0, prediction.futures)
+    with pytest.raises(ValueError, match="way_weight needs a prediction whose futures"):
+        Objective(goal, grid, 1e3, shown, pace, np.zeros(2))  # futures that are not its tracks
 
 
 def test_polar_means_reach_the_top_speed():

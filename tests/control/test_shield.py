@@ -89,6 +89,46 @@ def test_a_plan_that_curves_clear_passes_its_command_unchanged():
     assert on(np.zeros(3), u, NO_STATIC, moving, velocity, bounds, plan)[1]
 
 
+def loop(ctrl, steps=40):
+    """The actions (steps, nu) of `ctrl` driving at a walker that comes head-on."""
+    state, actions = np.zeros(3), []
+    moving, velocity = head_on(4.0)
+    for _ in range(steps):
+        u = ctrl.act(state, np.array([8.0, 0.0]), None, moving, None, moving_velocity=velocity)
+        state = ctrl.agent.step(state, u, DT)
+        moving[:, :2] += DT * velocity
+        actions.append(u)
+    return np.array(actions)
+
+
+@pytest.mark.parametrize("controller", ["mppi", "dc", "orca", "social_force", "dwa"])
+def test_the_shield_sees_this_steps_plan_or_none(controller, monkeypatch):
+    seen = []
+    call = Shield.__call__
+
+    def spy(self, state, u, static, moving, velocity, bounds=None, plan=None):
+        seen.append(plan)
+        return call(self, state, u, static, moving, velocity, bounds, plan)
+
+    monkeypatch.setattr(Shield, "__call__", spy)
+    params = {"agent": "holonomic", "seed": 0}
+    if controller in ("mppi", "dc"):
+        params.update(K=64, N=20, prediction="cv")
+    ctrl = make_controller(controller, shield=True, **params)
+    moving, velocity = head_on(2.0)
+    for _ in range(3):
+        ctrl.act(np.zeros(3), np.array([5.0, 0.0]), None, moving, None, moving_velocity=velocity)
+        if controller in ("mppi", "dc"):
+            assert seen[-1] is ctrl.diagnostics.plan  # this step's, not the last step's
+        else:
+            assert seen[-1] is None  # a classical planner has no plan: the command alone
+    if controller not in ("mppi", "dc"):  # so the check changes nothing for it
+        off = make_controller(controller, shield={"plan": False}, **params)
+        monkeypatch.setattr(Shield, "__call__", call)
+        np.testing.assert_array_equal(loop(make_controller(controller, shield=True, **params)),
+                                      loop(off))  # fmt: skip
+
+
 def test_static_cylinders_and_the_map_edges_are_kept_clear():
     agent = make_agent("holonomic", v_max=1.0)
     shield = Shield(agent, RADIUS, DT, time_horizon=1.0, margin=0.0)

@@ -9,8 +9,9 @@ works at every step, for every agent and perturbation (docs/design.md):
 - cost: (S_k - min S) in units of cost_unit / (collision_gap x radius), cost_unit = alpha by
   default: a rollout with one more colliding state lies `collision_gap` DBSCAN radii away from an
   otherwise equal one, while the goal-distance part of the cost varies smoothly. The
-  moving-obstacle term M_k of S_k is measured in its own unit, the prediction's collision_cost
-  (frozen obstacles: alpha; sampled futures: beta): the cost feature is
+  moving-obstacle term M_k of S_k (the objective's way term included) is measured in its own
+  unit, the prediction's collision_cost (frozen obstacles: alpha; sampled futures: beta): the
+  cost feature is
   (S_k - M_k) / cost_unit + M_k / collision_cost (times collision_gap x radius), so a state
   certainly inside a moving obstacle (all its P futures) moves a sample as far as a static
   collision does, and one of P futures 1 / P of that. Measured in alpha, beta = alpha / 10

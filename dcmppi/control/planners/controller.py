@@ -60,7 +60,8 @@ class Controller:
       gamma: weight of the importance term gamma lambda sum_i u_i^T Sigma^-1 eps_i (1: paper;
         lambda = 1 there with lambda_="auto"); a preset may set it. For a velocity-commanded
         robot the term favours samples slower than the warm start.
-      alpha: static collision weight. beta: dynamic collision weight (sampled futures).
+      alpha: static collision weight. beta: dynamic collision weight (sampled futures; a
+        preset may set it).
       P: futures per moving obstacle. seed: int, None or np.random.Generator.
       perturbation: "constant" (one eps per sample over the horizon, paper Sec. IV-A),
         "time_varying" (independent per step), "mixed" (one of each) or "correlated" (each
@@ -84,10 +85,11 @@ class Controller:
       filter_window, filter_order: the Savitzky-Golay filter of the plan
         (dcmppi.control.planners.smoothing), its odd window (>= 3; 0: no filter, the default;
         "smooth": 9) and polynomial order (< window; default 2).
-      cost_to_go, path_align, speed_weight: weights >= 0 of the objective's terms for time to
-        the goal (dcmppi.control.objective.Pace; 0: off, the default).
+      cost_to_go, path_align, speed_weight, way_weight: weights >= 0 of the objective's terms
+        for time to the goal and for standing in a person's way (dcmppi.control.objective.Pace;
+        0: off, the default).
       shield: the safety shield of the applied control (dcmppi.control.planners.shield): None or
-        false (off, the default), true, or a dict of its time_horizon and margin.
+        false (off, the default), true, or a dict of its time_horizon, margin and plan.
     Attributes: agent, predictor, sampler (sampling.Sampler), plan_filter
       (smoothing.PlanFilter), pace (objective.Pace), safety (shield.Shield or None), objective
       (the last step's), diagnostics (the last step's), timer (the profile's hook,
@@ -304,11 +306,11 @@ class Controller:
             )
             pace = self.pace if self.pace.on else None
             self.objective = Objective(goal, self._grid, self.alpha, prediction, pace, state[:2])
-        self.diagnostics.prediction = prediction
+        self.diagnostics.prediction, self.diagnostics.plan = prediction, None
         u = self._solve(state)
         if self.safety is not None:
             with self.timer("shield"):
-                args = (static, moving, velocity, obstacle_model, bounds)
+                args = (static, moving, velocity, obstacle_model, bounds, self.diagnostics.plan)
                 u = shielded(self.safety, self.diagnostics, state, u, *args)
         self.diagnostics.action = u
         self.plan_filter.record(u)

@@ -302,17 +302,17 @@ def _along(lines, chord, speed, top):
     return min(max(speed, low), high)
 
 
-def shielded(safety, diagnostics, state, u, static, moving, velocity, obstacle_model, bounds):
+def shielded(safety, diagnostics, state, u, static, moving, velocity, obstacle_model, bounds,
+             plan=None):  # fmt: skip
     """u (nu,) through `safety` (a Shield), recording in `diagnostics` whether it changed the
     command (`shielded`). The arguments are Controller.act's: static
     (M, 3) or None, moving (L, 4) without padding rows and their observed velocities (L, 2)
     (nan: not observed; None), filled as the classical planners fill them
-    (velocities.moving_obstacle_velocity); bounds (4,) or None. The planner's plan is
-    `diagnostics.plan` where it has one."""
+    (velocities.moving_obstacle_velocity); bounds (4,) or None; plan (N, nu) the plan this step
+    made (its first row the planner's command), or None (a planner without one)."""
     moving = np.zeros((0, 4)) if moving is None else moving
     velocity = moving_obstacle_velocity(moving, velocity, obstacle_model)
     static = valid_cylinders(static, "static")
     bounds = None if bounds is None else floats("bounds", bounds).reshape(4)
-    plan = getattr(diagnostics, "plan", None)
     u, diagnostics.shielded = safety(state, u, static, moving, velocity, bounds, plan)
     return u

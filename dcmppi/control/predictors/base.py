@@ -29,8 +29,9 @@ class Prediction:
     collision_cost: what one state pays for a certain collision with one obstacle (all its
       tracks hit): frozen alpha, sampled futures beta. Clustered MPPI measures the
       moving-obstacle term in this unit (dcmppi.control.planners.clustered). None: `weight`.
-    futures: (L', P, N + 1, 2) the sampled futures by obstacle, for diagnostics and videos, or
-      None.
+    futures: (L', P, N + 1, 2) the sampled futures by obstacle (tracks grouped by obstacle:
+      tracks = futures.reshape(-1, N + 1, 2), with distance alike), for diagnostics, videos and
+      the objective's way term, or None.
     posterior: (mean (L, 5), cov (L, 5, 5)) of each obstacle's x, y, heading, speed, turn rate
       where the predictor filters them ("ekf"), or None.
     """

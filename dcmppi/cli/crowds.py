@@ -26,20 +26,7 @@ def add_parser(subparsers, names: dict) -> None:
         help="per file: frame step, period, people, positions, walking speeds, replay episodes "
         "and the problems that refuse it (exit 2 when a file would be refused)",
     )
-    c.add_argument(
-        "files",
-        nargs="+",
-        metavar="FILE",
-        help="four-column files: paths, or names of " + ", ".join(recordings.FILES),
-    )
-    reading(
-        c,
-        "seconds between annotated frames (default: the file's own: stated in a '# period' "
-        f"line, known, else {recordings.PERIOD})",
-    )
-    c.add_argument(
-        "--folder", help=f"folder of the ETH/UCY files named (default: ${recordings.CROWDS_ENV})"
-    )
+    files(c, "+", "names of " + ", ".join(recordings.FILES), "the file's own")
     c.add_argument("--json", action="store_true", help="print one JSON object per file")
     e = sub.add_parser(
         "spread",
@@ -47,22 +34,27 @@ def add_parser(subparsers, names: dict) -> None:
         + ", ".join(f"{h:g}" for h in spread.HORIZONS)
         + " s (what the cv predictor's cv_std and cv_std_still stand for)",
     )
-    e.add_argument(
-        "files",
-        nargs="*",
-        metavar="FILE",
-        help="four-column files: paths, or names of the ETH/UCY files (default: all of them, "
-        "each at its own period)",
+    files(
+        e, "*", "names of the ETH/UCY files (default: all of them, each at its own period)",
+        "each file's own",
+    )  # fmt: skip
+    e.add_argument("--json", action="store_true", help="print the rows as one JSON list")
+
+
+def files(parser, nargs, names, own):
+    """The recorded files' arguments of `parser`: FILE (`nargs`; paths or `names`), the reading
+    flags (the period's default: `own`) and --folder."""
+    parser.add_argument(
+        "files", nargs=nargs, metavar="FILE", help=f"four-column files: paths, or {names}"
     )
     reading(
-        e,
-        "seconds between annotated frames (default: each file's own: stated in a '# period' "
-        f"line, known, else {recordings.PERIOD})",
+        parser,
+        f"seconds between annotated frames (default: {own}: stated in a '# period' line, "
+        f"known, else {recordings.PERIOD})",
     )
-    e.add_argument(
+    parser.add_argument(
         "--folder", help=f"folder of the ETH/UCY files named (default: ${recordings.CROWDS_ENV})"
     )
-    e.add_argument("--json", action="store_true", help="print the rows as one JSON list")
 
 
 def run(args) -> int:

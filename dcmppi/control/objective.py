@@ -89,7 +89,7 @@ class Objective:
             J = goal_distance(x, y, self.goal, cols)
         else:
             J = static_costs(x, y, self.goal, self.grid, self.alpha, cols)
-        if self.pace is not None:
+        if self.pace is not None and self.pace.timed:
             J += self.pace(x, y, self.start, self.goal, cols)
         term = None
         if not self.tracks.empty:
@@ -154,7 +154,12 @@ class Pace:
     @property
     def on(self):
         """Whether any term has a weight."""
-        return bool(self.cost_to_go or self.path_align or self.speed_weight or self.way_weight)
+        return self.timed or bool(self.way_weight)
+
+    @property
+    def timed(self):
+        """Whether a term for time to the goal (the ones __call__ sums) has a weight."""
+        return bool(self.cost_to_go or self.path_align or self.speed_weight)
 
     def __call__(self, x, y, start, goal, cols=None):
         """The time terms' sum (R,) for the rollouts x, y (N + 1, R) from the step's position

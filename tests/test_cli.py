@@ -98,6 +98,11 @@ def test_shards_report_replay_and_a_mixed_resume(mine, capsys):
     assert _bench("--shard", "0/2", "--db", "a.db", "--episodes", "5", "--allow-mixed") == 0
     assert [r["env_index"] for r in ResultsDB("a.db").rows()] == [0, 2, 4]
 
+    assert _bench("--tuning", "--episodes", "2") == 0  # other environments, their own database
+    tuned = {r["env_index"]: r["seed"] for r in ResultsDB("results/small-tuning.db").rows()}
+    tested = {r["env_index"]: r["seed"] for r in ResultsDB("a.db").rows()}
+    assert set(tuned) == {0, 1} and tuned[0] != tested[0]
+
 
 @pytest.mark.slow
 def test_reach_counts_solvable_environments_and_splits_a_databases_collisions(tmp_path, capsys):

@@ -66,6 +66,7 @@ def run(
     shard: tuple[int, int] = (0, 1),
     episode_timeout: float | None = None,
     allow_mixed: bool = False,
+    tuning: bool = False,
     progress: bool = True,
     verbose: bool = True,
 ) -> BenchRun:
@@ -85,13 +86,15 @@ def run(
     episode_timeout: seconds after which a running episode is recorded as a timeout error.
     allow_mixed: extend a database recorded under another dcmppi version, resolved parameter
       or input file.
+    tuning: run the experiment's tuning environments (`Experiment.tuning`: other seeds, none
+      a test environment) instead of its own; the default database is results/NAME-tuning.db.
     progress: the progress line on stderr; verbose: the plan line (episodes to run) on stderr,
       and where the finished episodes are when interrupted.
 
     Bad input raises ValueError before anything is recorded. KeyboardInterrupt stops the
     workers and is re-raised; the finished episodes stay in the database (rerun to resume).
     """
-    exp = _experiment(experiment, episodes, rows, noises, task_params, controller_params)
+    exp = _experiment(experiment, episodes, rows, noises, task_params, controller_params, tuning)
     i, n = shard
     if not 0 <= i < n:
         raise ValueError(f"shard (i, n) needs 0 <= i < n, got {shard}")
@@ -119,10 +122,15 @@ def load(db: str | os.PathLike | BenchRun | Sequence[str | os.PathLike]):
     return pd.DataFrame([{c: r[c] for c in TABLE_COLUMNS} for r in rows], columns=TABLE_COLUMNS)
 
 
-def _experiment(experiment, episodes, rows, noises, task_params, controller_params) -> Experiment:
-    """The experiment to run: loaded, its episodes, rows and noises selected, parameters added."""
+def _experiment(
+    experiment, episodes, rows, noises, task_params, controller_params, tuning
+) -> Experiment:
+    """The experiment to run: loaded (on its tuning environments with `tuning`), its episodes,
+    rows and noises selected, parameters added."""
     if not isinstance(experiment, Experiment):
         experiment = load_experiment(os.fspath(experiment))
+    if tuning:
+        experiment = experiment.tuning()
     exp = experiment.select(episodes, _names(rows), _names(noises))
     return exp.with_params(dict(task_params or {}), dict(controller_params or {}))
 

@@ -50,6 +50,13 @@ def add_parser(subparsers, names: dict) -> None:
         help="extend a database recorded under another dcmppi version, resolved parameter or "
         "input file (the report then shows the versions per row)",
     )
+    p.add_argument(
+        "--tuning",
+        action="store_true",
+        help="run the experiment's tuning environments instead of its test ones, to choose "
+        "parameters on: base seed + 7919, drawn from the seeds where environment i is a "
+        "benchmark's case i (default --db results/EXPERIMENT-tuning.db)",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress line")
 
 
@@ -69,6 +76,7 @@ def run(args) -> int:
         shard=shard(args.shard),
         episode_timeout=args.episode_timeout,
         allow_mixed=args.allow_mixed,
+        tuning=args.tuning,
         progress=not args.no_progress,
     )
     previous = signal.signal(signal.SIGTERM, _terminate)

@@ -4,6 +4,7 @@ import pytest
 
 from dcmppi.bench.episodes.runner import check_specs
 from dcmppi.bench.experiments import (
+    TUNING_SEED,
     ExperimentError,
     Paper,
     experiment_names,
@@ -207,6 +208,22 @@ def test_keys_specs_and_the_configuration():
     assert small.config() == exp.config()
     assert set(exp.config()["rows"]) == set(exp.labels)
     assert exp.with_params({}, {"K": 100}).config() != exp.config()
+
+
+def test_tuning_environments_are_other_seeds_and_no_benchmark_case():
+    """--tuning: the same rows and parameters on environments the test never draws (a
+    benchmark's own cases, env_param, are drawn from the seeds instead)."""
+    exp = load_experiment("crowdnav")
+    tuning = exp.tuning()
+    assert tuning.name == "crowdnav-tuning" and tuning.env_param is None
+    assert tuning.base_seed == exp.base_seed + TUNING_SEED
+    assert tuning.rows == exp.rows and tuning.controller_params == exp.controller_params
+    test_seeds = {exp.seed(i) for i in range(exp.episodes)}
+    assert test_seeds.isdisjoint(tuning.seed(i) for i in range(exp.episodes))
+    spec = tuning.spec("none", "dc-recommended", 3)
+    assert "case" not in spec.task_params and spec.seed == tuning.seed(3)
+    assert exp.spec("none", "dc-recommended", 3).task_params["case"] == 3
+    assert tuning.config() != exp.config()  # a database of one refuses the other's rows
 
 
 def test_repeated_rows_and_noise_profiles_run_once():

@@ -34,7 +34,10 @@ if sys.version_info >= (3, 11):
 else:
     import tomli as tomllib
 
+TUNING_SEED = 7919  # added to an experiment's base seed for its tuning environments
+
 __all__ = [
+    "TUNING_SEED",
     "Experiment",
     "ExperimentError",
     "Paper",
@@ -202,6 +205,17 @@ class Experiment:
         """Whether `specs(shard)` yields episode `key` = (noise, label, env_index)."""
         noise, label, index = key
         return noise in self.noises and label in self.labels and index in self.indices(shard)
+
+    def tuning(self) -> Experiment:
+        """This experiment on its tuning environments, for choosing parameters without the test
+        environments: base seed + TUNING_SEED and, where the environment index picks a benchmark's
+        case (`env_param`), environments drawn from their seeds instead (named NAME-tuning)."""
+        return dataclasses.replace(
+            self,
+            name=f"{self.name}-tuning",
+            base_seed=self.base_seed + TUNING_SEED,
+            env_param=None,
+        )
 
     def select(
         self,

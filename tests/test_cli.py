@@ -102,6 +102,17 @@ def test_shards_report_replay_and_a_mixed_resume(mine, capsys):
     tuned = {r["env_index"]: r["seed"] for r in ResultsDB("results/small-tuning.db").rows()}
     tested = {r["env_index"]: r["seed"] for r in ResultsDB("a.db").rows()}
     assert set(tuned) == {0, 1} and tuned[0] != tested[0]
+    replay = ["replay", "--db", "results/small-tuning.db", "--label", "steady", "--env", "1"]
+    assert cli.main(replay) == 0
+
+
+def test_the_tuning_help_names_the_seed_offset(capsys):
+    from dcmppi.bench.experiments import TUNING_SEED
+
+    for command in ("bench", "reach"):
+        with pytest.raises(SystemExit):
+            cli.main([command, "--help"])
+        assert f"base seed + {TUNING_SEED} " in " ".join(capsys.readouterr().out.split())
 
 
 @pytest.mark.slow

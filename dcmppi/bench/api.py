@@ -86,8 +86,8 @@ def run(
     episode_timeout: seconds after which a running episode is recorded as a timeout error.
     allow_mixed: extend a database recorded under another dcmppi version, resolved parameter
       or input file.
-    tuning: run the experiment's tuning environments (`Experiment.tuning`: other seeds, none
-      a test environment) instead of its own; the default database is results/NAME-tuning.db.
+    tuning: run the experiment's tuning environments (`Experiment.for_tuning`: none a test
+      environment) instead of its own; the default database is results/NAME-tuning.db.
     progress: the progress line on stderr; verbose: the plan line (episodes to run) on stderr,
       and where the finished episodes are when interrupted.
 
@@ -129,10 +129,10 @@ def _experiment(
     rows and noises selected, parameters added."""
     if not isinstance(experiment, Experiment):
         experiment = load_experiment(os.fspath(experiment))
+    exp = experiment.with_params(dict(task_params or {}), dict(controller_params or {}))
     if tuning:
-        experiment = experiment.tuning()
-    exp = experiment.select(episodes, _names(rows), _names(noises))
-    return exp.with_params(dict(task_params or {}), dict(controller_params or {}))
+        exp = exp.for_tuning()
+    return exp.select(episodes, _names(rows), _names(noises))
 
 
 def _open(exp: Experiment, shard, db, allow_mixed: bool) -> ResultsDB:

@@ -4,7 +4,7 @@
 import signal
 import sys
 
-from dcmppi.cli.common import SHARED, comma_list, command, flag_names, key_values, params
+from dcmppi.cli.common import SHARED, TUNING, comma_list, command, flag_names, key_values, params
 
 
 def add_parser(subparsers, names: dict) -> None:
@@ -53,9 +53,7 @@ def add_parser(subparsers, names: dict) -> None:
     p.add_argument(
         "--tuning",
         action="store_true",
-        help="run the experiment's tuning environments instead of its test ones, to choose "
-        "parameters on: base seed + 7919, drawn from the seeds where environment i is a "
-        "benchmark's case i (default --db results/EXPERIMENT-tuning.db)",
+        help=f"run {TUNING} (default --db results/EXPERIMENT-tuning.db)",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress line")
 

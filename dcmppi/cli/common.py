@@ -21,6 +21,10 @@ CAMERA_HELP = (
     "top: the whole map; chase: behind the robot"
 )
 SHARED = "parameter for every controller that takes it (repeatable)"
+TUNING = (  # 7919: dcmppi.bench.experiments.TUNING_SEED (tests/test_cli.py checks it)
+    "the experiment's tuning environments instead of its test ones, to choose parameters on: "
+    "base seed + 7919 and, where environment i is a benchmark's case i, the draws its file names"
+)
 PACKAGE = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep  # dcmppi/
 
 

@@ -3,7 +3,7 @@ by them."""
 
 import sys
 
-from dcmppi.cli.common import command, flag_names, key_values
+from dcmppi.cli.common import TUNING, command, flag_names, key_values
 
 
 def add_parser(subparsers, names: dict) -> None:
@@ -18,6 +18,7 @@ def add_parser(subparsers, names: dict) -> None:
     p.add_argument("--episodes", type=int, help="environments (default: the experiment's)")
     p.add_argument("--task-param", action="append", metavar="NAME=VALUE", help=names["task_param"])
     p.add_argument("--db", help="a results database: split each row's collisions by them")
+    p.add_argument("--tuning", action="store_true", help=f"survey {TUNING}")
     p.add_argument("--no-progress", action="store_true", help="no progress line")
 
 
@@ -26,8 +27,9 @@ def run(args) -> int:
     from dcmppi.bench.experiments import load_experiment
 
     with flag_names():
-        exp = load_experiment(args.experiment).select(args.episodes, None, None)
+        exp = load_experiment(args.experiment)
     exp = exp.with_params(key_values(args.task_param, "--task-param"), {})
+    exp = (exp.for_tuning() if args.tuning else exp).select(args.episodes, None, None)
     rows = _rows(args.db, exp) if args.db else []
 
     def progress(done, total):
@@ -48,11 +50,11 @@ def _rows(path: str, exp) -> list[dict]:
     rows, config = db.rows(), db.config
     db.close()
     mine = exp.config()
-    keys = ("task", "base_seed", "env_param", "task_params")
+    keys = ("task", "base_seed", "env_param", "env_offset", "task_params")
     differ = [k for k in keys if config.get(k) != mine.get(k)]
     if differ:
         raise ValueError(
             f"{path} holds another experiment's environments ({', '.join(differ)} differ "
-            f"from {exp.name}'s); pass its --experiment and --task-param values"
+            f"from {exp.name}'s); pass its --experiment, --task-param and --tuning values"
         )
     return rows

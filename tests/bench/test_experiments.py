@@ -2,9 +2,11 @@
 
 import pytest
 
+from dcmppi.bench.api import run
 from dcmppi.bench.episodes.runner import check_specs
 from dcmppi.bench.experiments import (
     TUNING_SEED,
+    Experiment,
     ExperimentError,
     Paper,
     experiment_names,
@@ -211,19 +213,34 @@ def test_keys_specs_and_the_configuration():
 
 
 def test_tuning_environments_are_other_seeds_and_no_benchmark_case():
-    """--tuning: the same rows and parameters on environments the test never draws (a
-    benchmark's own cases, env_param, are drawn from the seeds instead)."""
+    """--tuning: the same rows and parameters on environments the test never draws: a
+    benchmark's draws from other seeds ("seeds") or its cases after the test's ("beyond")."""
     exp = load_experiment("crowdnav")
-    tuning = exp.tuning()
+    tuning = exp.for_tuning()
     assert tuning.name == "crowdnav-tuning" and tuning.env_param is None
     assert tuning.base_seed == exp.base_seed + TUNING_SEED
-    assert tuning.rows == exp.rows and tuning.controller_params == exp.controller_params
-    test_seeds = {exp.seed(i) for i in range(exp.episodes)}
-    assert test_seeds.isdisjoint(tuning.seed(i) for i in range(exp.episodes))
+    assert [r.params for r in tuning.rows] == [r.params for r in exp.rows]
+    assert tuning.controller_params == exp.controller_params
+    assert not any(r.paper for r in tuning.rows) and not tuning.paper_note
     spec = tuning.spec("none", "dc-recommended", 3)
-    assert "case" not in spec.task_params and spec.seed == tuning.seed(3)
+    assert "case" not in spec.task_params and spec.seed == tuning.seed(3) != exp.seed(3)
     assert exp.spec("none", "dc-recommended", 3).task_params["case"] == 3
     assert tuning.config() != exp.config()  # a database of one refuses the other's rows
+    replay = load_experiment("eth-ucy")
+    beyond = replay.for_tuning().select(episodes=2)
+    assert beyond.spec("none", "hrvo", 1).task_params["episode"] == replay.episodes + 1
+    assert Experiment.from_dict(beyond.to_dict(), "stored").config() == beyond.config()
+    with pytest.raises(ValueError, match="barn has no tuning environments: environment i is "):
+        load_experiment("barn").for_tuning()
+    with pytest.raises(ValueError, match="--task-param case=...: experiment crowdnav sets"):
+        run("crowdnav", tuning=True, task_params={"case": 3}, episodes=1)
+
+
+@pytest.mark.parametrize("name", [n for n in CROWDS if n not in ("eth-ucy", "eth-ucy-reactive")])
+def test_every_crowd_experiments_tuning_rows_build(name):
+    tuning = load_experiment(name).for_tuning()
+    rows = tuple(r.label for r in tuning.rows if not isinstance(r.params.get("model"), dict))
+    check_specs([spec for _, spec in tuning.select(episodes=1, rows=rows).specs()])
 
 
 def test_repeated_rows_and_noise_profiles_run_once():
@@ -301,6 +318,9 @@ def test_a_file_by_path_takes_its_name_from_the_stem(tmp_path):
             "must be a number",
         ),
         ('name = "a/b"\n' + MINIMAL, "name", "not a path"),
+        ('tuning = "seeds"\n' + MINIMAL, "tuning", "only with env_param"),
+        ('env_param = "x"\ntuning = "later"\n' + MINIMAL, "tuning", "'later'; valid: 'seeds'"),
+        ('env_param = "x"\nenv_offset = -1\n' + MINIMAL, "env_offset", "must be >= 0"),
     ],
 )
 def test_a_malformed_file_names_the_file_the_key_and_the_reason(tmp_path, text, key, reason):

@@ -84,7 +84,9 @@ class Experiment:
     base_seed: int = 0
     task_params: dict = dataclasses.field(default_factory=dict)
     controller_params: dict = dataclasses.field(default_factory=dict)
-    env_param: str | None = None  # task parameter set to the environment index
+    env_param: str | None = None  # task parameter set to env_offset + the environment index
+    env_offset: int = 0
+    tuning: str | None = None  # with env_param: how `for_tuning` draws environments
     reference: str | None = None
     description: str = ""
     paper_note: str = ""
@@ -115,7 +117,8 @@ class Experiment:
             "noises": list(self.noises),
             "episodes": self.episodes,
             "base_seed": self.base_seed,
-            **({"env_param": self.env_param} if self.env_param else {}),
+            **self._environments(),
+            **({"tuning": self.tuning} if self.tuning else {}),
             **({"reference": self.reference} if self.reference else {}),
             "paper_note": self.paper_note,
             "task_params": self.task_params,
@@ -146,7 +149,7 @@ class Experiment:
         return {
             "task": self.task,
             "base_seed": self.base_seed,
-            **({"env_param": self.env_param} if self.env_param else {}),
+            **self._environments(),
             "task_params": self.task_params,
             "controller_params": self.controller_params,
             "rows": {r.label: {"controller": r.controller, "params": r.params} for r in self.rows},
@@ -157,7 +160,7 @@ class Experiment:
         row = self.row(label)
         task_params = dict(self.task_params)
         if self.env_param:
-            task_params[self.env_param] = index
+            task_params[self.env_param] = self.env_offset + index
         return EpisodeSpec(
             task=self.task,
             controller=row.controller,
@@ -206,16 +209,39 @@ class Experiment:
         noise, label, index = key
         return noise in self.noises and label in self.labels and index in self.indices(shard)
 
-    def tuning(self) -> Experiment:
-        """This experiment on its tuning environments, for choosing parameters without the test
-        environments: base seed + TUNING_SEED and, where the environment index picks a benchmark's
-        case (`env_param`), environments drawn from their seeds instead (named NAME-tuning)."""
+    def for_tuning(self) -> Experiment:
+        """This experiment on its tuning environments, to choose parameters on without the test
+        environments: base seed + TUNING_SEED and, with env_param, as its `tuning` says ("seeds":
+        env_param dropped, the task draws each environment from its seed; "beyond": the cases
+        after the test's, env_offset + episodes + i). Its name is NAME-tuning; the paper's
+        figures are left out. ValueError where env_param has no `tuning`."""
+        if self.env_param and self.tuning is None:
+            raise ValueError(
+                f"experiment {self.name} has no tuning environments: environment i is its "
+                f'{self.env_param} {self.env_offset} + i (declare tuning = "seeds" or '
+                '"beyond" in its file where other environments exist)'
+            )
+        draw = {}
+        if self.tuning == "seeds":
+            draw = {"env_param": None, "env_offset": 0}
+        elif self.tuning == "beyond":
+            draw = {"env_offset": self.env_offset + self.episodes}
         return dataclasses.replace(
             self,
             name=f"{self.name}-tuning",
             base_seed=self.base_seed + TUNING_SEED,
-            env_param=None,
+            rows=tuple(dataclasses.replace(row, paper={}) for row in self.rows),
+            paper_note="",
+            tuning=None,
+            **draw,
         )
+
+    def _environments(self) -> dict:
+        """env_param and a nonzero env_offset, as stored (`to_dict`, `config`)."""
+        if not self.env_param:
+            return {}
+        offset = {"env_offset": self.env_offset} if self.env_offset else {}
+        return {"env_param": self.env_param, **offset}
 
     def select(
         self,

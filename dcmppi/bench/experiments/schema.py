@@ -8,6 +8,11 @@ episodes = 100                # environments, >= 1
 base_seed = 2024              # optional, default 0; environment i's seed: (base_seed, i)
 env_param = "world"           # optional: task parameter set to i in environment i (e.g. the
                               # BARN world); the seed then drives only noise and sampling
+env_offset = 0                # optional, with env_param: it is set to env_offset + i instead
+tuning = "seeds"              # optional, with env_param: the tuning environments (--tuning):
+                              # "seeds" (the task draws each from its seed) or "beyond" (the
+                              # cases after the test's: env_param = env_offset + episodes + i);
+                              # without it, none (every environment with env_param has one)
 reference = "mppi"            # optional: the row every other row is compared with (McNemar)
 paper_note = "..."            # optional: where the paper's figures come from
 [task_params]                 # optional: task keyword arguments (agent, time_limit, ...)
@@ -35,6 +40,8 @@ TOP_KEYS = {
     "episodes": int,
     "base_seed": int,
     "env_param": str,
+    "env_offset": int,
+    "tuning": str,
     "reference": str,
     "paper_note": str,
     "task_params": dict,
@@ -42,6 +49,7 @@ TOP_KEYS = {
     "rows": list,
 }
 ROW_KEYS = {"label": str, "controller": str, "params": dict, "paper": dict}
+TUNING = ("seeds", "beyond")
 PAPER_KEYS = {"collisions": int, "failure_pct": float, "ms_per_step": float}
 REQUIRED = ("task", "episodes", "rows")
 RESERVED = {
@@ -116,6 +124,7 @@ def parse(data: dict, source: str, resolve: bool = True) -> dict:
     name, task, episodes, base_seed = _scalars(source, data, resolve)
     noises = _noises(source, data.get("noises", ["none"]))
     env_param = _env_param(source, data)
+    env_offset, tuning = _environments(source, data, env_param)
     rows = _rows(source, data["rows"], resolve)
     labels = [row["label"] for row in rows]
     reference = data.get("reference")
@@ -132,6 +141,8 @@ def parse(data: dict, source: str, resolve: bool = True) -> dict:
         "episodes": episodes,
         "base_seed": base_seed,
         "env_param": env_param,
+        "env_offset": env_offset,
+        "tuning": tuning,
         **{
             key: check_params(source, key, data.get(key, {}), RESERVED[key])
             for key in ("task_params", "controller_params")
@@ -161,6 +172,23 @@ def _scalars(source, data, resolve) -> tuple[str, str, int, int]:
     if base_seed < 0:
         raise ExperimentError(source, "base_seed", f"must be >= 0, got {base_seed}")
     return name, task, episodes, base_seed
+
+
+def _environments(source, data, env_param) -> tuple[int, str | None]:
+    """(env_offset, tuning), checked: both only with env_param."""
+    for key in ("env_offset", "tuning"):
+        if key in data and env_param is None:
+            raise ExperimentError(
+                source, key, "only with env_param (without it environment i is its seed's)"
+            )
+    env_offset, tuning = data.get("env_offset", 0), data.get("tuning")
+    if env_offset < 0:
+        raise ExperimentError(source, "env_offset", f"must be >= 0, got {env_offset}")
+    if tuning is not None and tuning not in TUNING:
+        raise ExperimentError(
+            source, "tuning", f"{tuning!r}; valid: {', '.join(map(repr, TUNING))}"
+        )
+    return env_offset, tuning
 
 
 def _noises(source, noises: list) -> tuple[str, ...]:

@@ -88,7 +88,14 @@ def _check_configurations(old, new) -> None:
             f"the old databases hold experiment {old.name!r} and the new {new.name!r}; "
             "compare runs of one experiment"
         )
-    for field in ("task", "base_seed", "env_param", "task_params", "controller_params"):
+    for field in (
+        "task",
+        "base_seed",
+        "env_param",
+        "env_offset",
+        "task_params",
+        "controller_params",
+    ):
         a, b = getattr(old, field), getattr(new, field)
         if a != b:
             raise ValueError(

@@ -349,6 +349,7 @@ def _spec(record: dict, config: dict) -> EpisodeSpec:
         task_params=config.get("task_params", {}),
         controller_params=config.get("controller_params", {}),
         env_param=config.get("env_param"),
+        env_offset=config.get("env_offset", 0),
     )
     spec = exp.spec(record["noise"], label, index)
     recorded = EpisodeSpec(

@@ -99,7 +99,7 @@ def run(
     if not 0 <= i < n:
         raise ValueError(f"shard (i, n) needs 0 <= i < n, got {shard}")
     check_run(workers, executor, ray_address, episode_timeout)  # before the database is made
-    database = _open(exp, shard, db, allow_mixed)
+    database = _open(exp, shard, db, allow_mixed, tuple(controller_params or ()))
     how = dict(ray_address=ray_address, progress=progress, episode_timeout=episode_timeout)
     return _execute(exp, database, workers, executor, verbose, shard=shard, **how)
 
@@ -135,14 +135,15 @@ def _experiment(
     return exp.select(episodes, _names(rows), _names(noises))
 
 
-def _open(exp: Experiment, shard, db, allow_mixed: bool) -> ResultsDB:
+def _open(exp: Experiment, shard, db, allow_mixed: bool, chosen=()) -> ResultsDB:
     """The database to run `exp` into, once its first environment's rows and noises build (a
-    bad name, parameter or world raises ValueError before anything is recorded)."""
+    bad name, parameter or world raises ValueError before anything is recorded); `chosen`: the
+    shared parameters the caller gave."""
     # one environment's episodes hold every row and noise; the others are made as they run
     first = list(itertools.islice(exp.specs(shard), len(exp.noises) * len(exp.labels)))
     try:
         others = [(r.controller, r.params) for r in exp.rows if r.label not in exp.labels]
-        check_specs([spec for _, spec in first], others)
+        check_specs([spec for _, spec in first], others, chosen)
     except ValueError as e:
         raise ValueError(f"experiment {exp.name}: {e}") from e
     path = Path(db or f"results/{exp.name}.db")

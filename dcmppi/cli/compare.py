@@ -57,7 +57,7 @@ def run(args) -> int:
         )
         for controller in controllers
     ]
-    check_specs(specs)
+    check_specs(specs, chosen=tuple(specs[0].shared_params))
     with episode_errors():
         results = compare(
             [Episode(spec) for spec in specs],

@@ -41,7 +41,7 @@ def run(args) -> int:
         shared_params=key_values(args.param, "--param"),
     )
     specs = {c: dataclasses.replace(spec, controller=c) for c in controllers}
-    check_specs(list(specs.values()))
+    check_specs(list(specs.values()), chosen=tuple(spec.shared_params))
     require_diagnostics({c: controller_for(s) for c, s in specs.items()})  # before the episode
     observation, runs, _ = first_step(spec, controllers)
     result = write_figures(observation, runs, args.out, f"{spec.task}, seed {spec.seed}")

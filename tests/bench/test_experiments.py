@@ -351,3 +351,14 @@ def test_a_preset_held_by_a_shared_parameter_is_said(capsys):
     chosen = exp.with_params({}, {"preset": "smooth", "perturbation": "correlated"})
     check_specs([spec for _, spec in chosen.select(episodes=1, rows=("mppi",)).specs()])
     assert "preset" not in capsys.readouterr().err
+
+
+def test_a_parameter_the_user_chose_is_not_said_to_hold_over_the_preset(capsys):
+    """--param beta=30 with --param preset=crowds means beta 30: no line says it holds."""
+    exp = load_experiment("corridor")
+    chosen = {"preset": "crowds", "perturbation": "correlated", "gamma": 0.1, "beta": 30.0}
+    specs = [spec for _, spec in exp.with_params({}, chosen).select(1, ("dc",)).specs()]
+    check_specs(specs)
+    assert "shared beta=30.0 holds" in capsys.readouterr().err
+    check_specs(specs, chosen=tuple(chosen))
+    assert "preset" not in capsys.readouterr().err

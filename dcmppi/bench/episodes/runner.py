@@ -100,10 +100,11 @@ def controller_for(spec: EpisodeSpec):
     return build(spec.controller, spec.controller_params, _shared_args(spec))
 
 
-def preset_held(spec: EpisodeSpec) -> list[str]:
+def preset_held(spec: EpisodeSpec, chosen=()) -> list[str]:
     """One line per parameter that the preset of `spec`'s controller sets but an experiment's
     shared parameter sets otherwise: the shared value is explicit and wins, which a row or
-    `--param` that names the preset may not mean (the shipped rows name both)."""
+    `--param` that names the preset may not mean (the shipped rows name both). `chosen`: the
+    shared parameters the user gave (--param), which say what they mean."""
     from dcmppi.control.defaults import PRESETS
 
     params = {**spec.shared_params, **spec.controller_params}
@@ -116,16 +117,18 @@ def preset_held(spec: EpisodeSpec) -> list[str]:
         for key, value in preset.items()
         if key in spec.shared_params
         and key not in spec.controller_params
+        and key not in chosen
         and spec.shared_params[key] != value
     ]
 
 
-def check_specs(specs, others=()) -> None:
+def check_specs(specs, others=(), chosen=()) -> None:
     """Build (and reset) the environment of the first spec and the controller of every distinct
     one, so that a bad name, parameter, world or missing dependency fails before anything is
     recorded. A shared parameter that none of the controllers takes is an error (a misspelt
     name); `others`: (controller, params) of an experiment's rows not run now, which count as
-    taking what they accept (the MPPI rows' shared parameters when only classical rows run)."""
+    taking what they accept (the MPPI rows' shared parameters when only classical rows run);
+    `chosen`: the shared parameters the user gave, never said to hold over a preset."""
     from dcmppi.bench.episodes.plugins import accepted_params, resolve_controller
 
     first = {}
@@ -142,7 +145,7 @@ def check_specs(specs, others=()) -> None:
         accepted = accepted_params(resolve_controller(spec.controller), agent, prediction)
         unused = set() if accepted is None else unused - accepted
         if accepted is None or "preset" in accepted:
-            for line in preset_held(spec):
+            for line in preset_held(spec, chosen):
                 print(f"dcmppi: {line}", file=sys.stderr)
         if i == 0:  # a world the task cannot draw (an impossible layout) fails here
             env = make_env(spec)

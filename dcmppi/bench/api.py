@@ -18,7 +18,7 @@ import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from dcmppi.bench.episodes.runner import check_specs
+from dcmppi.bench.episodes.runner import check_specs, make_env
 from dcmppi.bench.experiments import Experiment, load_experiment
 from dcmppi.bench.results.database import TABLE_COLUMNS, ResultsDB
 from dcmppi.bench.results.provenance import collect
@@ -144,11 +144,32 @@ def _open(exp: Experiment, shard, db, allow_mixed: bool, chosen=()) -> ResultsDB
     try:
         others = [(r.controller, r.params) for r in exp.rows if r.label not in exp.labels]
         check_specs([spec for _, spec in first], others, chosen)
+        _check_last(exp, shard, first[0][1])
     except ValueError as e:
         raise ValueError(f"experiment {exp.name}: {e}") from e
     path = Path(db or f"results/{exp.name}.db")
     path.parent.mkdir(parents=True, exist_ok=True)
     return ResultsDB(path, exp.config(), collect(exp, first), allow_mixed)
+
+
+def _check_last(exp: Experiment, shard, spec) -> None:
+    """With env_param, the task of the shard's last environment builds as well (`spec`: the
+    first one's episode): an index past the cases a task has (a BARN world, a recorded episode)
+    fails before anything is recorded."""
+    indices = exp.indices(shard)
+    if not exp.env_param or len(indices) < 2:
+        return
+    last = indices[-1]
+    task_params = {**spec.task_params, exp.env_param: exp.env_offset + last}
+    env = None
+    try:
+        env = make_env(dataclasses.replace(spec, seed=exp.seed(last), task_params=task_params))
+        env.reset()
+    except ValueError as e:
+        raise ValueError(f"environment {last}: {e} (lower --episodes)") from e
+    finally:
+        if env is not None:
+            env.close()
 
 
 def _execute(exp, database, workers, executor, verbose, shard, **how) -> BenchRun:

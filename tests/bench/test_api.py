@@ -88,6 +88,20 @@ def test_bad_input_raises_before_a_database_is_made(tiny, tmp_path, options, mes
     assert not db.exists()
 
 
+def test_an_environment_index_past_the_tasks_cases_fails_before_a_database_is_made(tmp_path):
+    """env_param = n_humans: environment 199 has 199 humans, more than CrowdNav's circle holds;
+    environment 0 builds, so only the last environment's check stops the run."""
+    path = tmp_path / "many.toml"
+    path.write_text('task = "crowdnav"\nepisodes = 200\nenv_param = "n_humans"\n'
+                    '[[rows]]\ncontroller = "orca"\n')  # fmt: skip
+    db = tmp_path / "x.db"
+    with pytest.raises(ValueError, match="environment 199: only 21 of 199 humans fit") as error:
+        dcmppi.bench.run(path, db=db, verbose=False)
+    assert str(error.value).endswith("(lower --episodes)") and not db.exists()
+    dcmppi.bench.run(path, db=db, verbose=False, episodes=3, progress=False)  # 0-2 humans: fit
+    assert db.exists()
+
+
 def _record(path, keys):
     """A database of the tiny experiment holding made-up rows `keys` = [(noise, label, i)]."""
     from dcmppi.bench.experiments import load_experiment

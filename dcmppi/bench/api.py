@@ -18,7 +18,7 @@ import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from dcmppi.bench.episodes.runner import check_specs, make_env
+from dcmppi.bench.episodes.runner import check_specs, check_world
 from dcmppi.bench.experiments import Experiment, load_experiment
 from dcmppi.bench.results.database import TABLE_COLUMNS, ResultsDB
 from dcmppi.bench.results.provenance import collect
@@ -161,15 +161,10 @@ def _check_last(exp: Experiment, shard, spec) -> None:
         return
     last = indices[-1]
     task_params = {**spec.task_params, exp.env_param: exp.env_offset + last}
-    env = None
     try:
-        env = make_env(dataclasses.replace(spec, seed=exp.seed(last), task_params=task_params))
-        env.reset()
+        check_world(dataclasses.replace(spec, seed=exp.seed(last), task_params=task_params))
     except ValueError as e:
         raise ValueError(f"environment {last}: {e} (lower --episodes)") from e
-    finally:
-        if env is not None:
-            env.close()
 
 
 def _execute(exp, database, workers, executor, verbose, shard, **how) -> BenchRun:

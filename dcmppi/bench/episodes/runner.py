@@ -67,6 +67,15 @@ def make_env(spec: EpisodeSpec):
     return tasks.load(spec.task, task_kwargs=task_kwargs)
 
 
+def check_world(spec: EpisodeSpec) -> None:
+    """Build and reset the environment of `spec`: a world its task cannot draw raises."""
+    env = make_env(spec)
+    try:
+        env.reset()
+    finally:
+        env.close()
+
+
 def robot_keys() -> list[str]:
     """The parameters the plant and the planner share: the agent, its parameters and the robot
     radius. They are task parameters; the runner hands them to the controller."""
@@ -148,9 +157,7 @@ def check_specs(specs, others=(), chosen=()) -> None:
             for line in preset_held(spec, chosen):
                 print(f"dcmppi: {line}", file=sys.stderr)
         if i == 0:  # a world the task cannot draw (an impossible layout) fails here
-            env = make_env(spec)
-            env.reset()
-            env.close()
+            check_world(spec)
     for controller, params in others:
         if unused and agent is not None:
             prediction = {**next(iter(first.values())).shared_params, **params}.get("prediction")
